@@ -1,0 +1,158 @@
+"""Slow, plain-Python reading of the algorithm: the oracle for the numba kernel.
+
+Written for clarity, not speed, from the paper's text: Eq. 1 (local mean and
+variance), Eq. 2 (mean condition), Eq. 3 (random tone in the pixel's range),
+Eq. 4 (variance condition). It shares no code with ``_kernel.py``; the tests
+require the two to agree bit for bit. Arithmetic is Python float (IEEE
+float64) in the same order as the kernel; drawn tones are rounded to float32
+before they are tested, as the kernel stores them.
+"""
+
+import math
+
+import numpy as np
+
+_MASK64 = 0xFFFFFFFFFFFFFFFF
+
+
+def splitmix64(x):
+    """SplitMix64 finaliser on Python ints."""
+    z = (x + 0x9E3779B97F4A7C15) & _MASK64
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & _MASK64
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & _MASK64
+    return z ^ (z >> 31)
+
+
+def uniform(seed, plane_index, pass_index, pixel_index, try_index):
+    """R of Eq. 3 for one draw: a pure function of its five counters."""
+    key = splitmix64(seed)
+    key = splitmix64(key ^ plane_index)
+    key = splitmix64(key ^ pass_index)
+    key = splitmix64(key ^ pixel_index)
+    return (splitmix64(key ^ try_index) >> 11) * 2.0**-53
+
+
+def _ratio(numerator, mean):
+    if mean > 0.0:
+        return numerator / mean
+    return 0.0 if numerator == 0.0 else math.inf
+
+
+def _neighbour_coordinate(i, n, border):
+    if 0 <= i < n:
+        return i
+    if border == "inside":
+        return None
+    if border == "mirror":
+        if n == 1:
+            return 0
+        return -i if i < 0 else 2 * n - 2 - i
+    if border == "nearest":
+        return 0 if i < 0 else n - 1
+    if border == "wrap":
+        return i % n
+    raise ValueError(border)
+
+
+def reference_pass(
+    plane,
+    *,
+    mean_threshold,
+    variance_threshold,
+    range_limits,
+    tones,
+    max_tries,
+    seed,
+    plane_index=0,
+    pass_index=0,
+    border="inside",
+    variance_ratio="sqrt(V/N)/M",
+    on_exhausted="keep",
+    include_centre=False,
+    scan="raster",
+):
+    """One pass over a copy of ``plane``; returns ``(new_plane, counts)``.
+
+    ``range_limits`` are L_inf^1 < L_sup^1 = L_inf^2 < ... < L_sup^n and
+    ``tones`` the pairs (T_inf^i, T_sup^i). ``counts`` is a dict with the
+    kernel's diagnostic names.
+    """
+    g_plane = np.array(plane, dtype=np.float32)
+    height, width = g_plane.shape
+    counts = dict.fromkeys(
+        ("kept_by_mean", "left_by_variance", "redrawn", "out_of_tries", "skipped"), 0
+    )
+    for y in range(height):
+        columns = range(width)
+        if scan == "serpentine" and y % 2 == 1:
+            columns = reversed(columns)
+        for x in columns:
+            g = float(g_plane[y, x])
+            if not math.isfinite(g):
+                counts["skipped"] += 1
+                continue
+            values = []
+            for dy in (-1, 0, 1):
+                yy = _neighbour_coordinate(y + dy, height, border)
+                if yy is None:
+                    continue
+                for dx in (-1, 0, 1):
+                    if dy == dx == 0:
+                        continue
+                    xx = _neighbour_coordinate(x + dx, width, border)
+                    if xx is None:
+                        continue
+                    value = float(g_plane[yy, xx])
+                    if math.isfinite(value):
+                        values.append(value)
+            if not values:
+                counts["skipped"] += 1
+                continue
+            neighbour_sum = 0.0
+            for value in values:
+                neighbour_sum += value
+            if include_centre:
+                values.append(g)
+                n = len(values)
+                mean = (neighbour_sum + g) / n
+            else:
+                n = len(values)
+                mean = neighbour_sum / n
+
+            if _ratio(abs(g - mean), mean) <= mean_threshold:  # Eq. 2
+                counts["kept_by_mean"] += 1
+                continue
+
+            squares = 0.0
+            for value in values:
+                squares += (value - mean) * (value - mean)
+            variance = squares / n  # Eq. 1
+            if variance_ratio == "sqrt(V/N)/M":
+                spread = math.sqrt(variance / n)
+            else:
+                spread = math.sqrt(variance)
+            if _ratio(spread, mean) > variance_threshold:  # Eq. 4
+                counts["left_by_variance"] += 1
+                continue
+
+            i = 0
+            while i < len(tones) - 1 and g >= range_limits[i + 1]:
+                i += 1
+            t_inf, t_sup = tones[i]
+            draw = None
+            accepted = False
+            for attempt in range(max_tries):
+                r = uniform(seed, plane_index, pass_index, y * width + x, attempt)
+                draw = float(np.float32(t_inf + r * (t_sup - t_inf)))  # Eq. 3
+                draw_mean = (neighbour_sum + draw) / n if include_centre else mean
+                if _ratio(abs(draw - draw_mean), draw_mean) <= mean_threshold:
+                    accepted = True
+                    break
+            if accepted:
+                g_plane[y, x] = draw
+                counts["redrawn"] += 1
+            else:
+                counts["out_of_tries"] += 1
+                if on_exhausted == "last_draw" and draw is not None:
+                    g_plane[y, x] = draw
+    return g_plane, counts

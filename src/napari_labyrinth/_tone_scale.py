@@ -1,0 +1,79 @@
+"""Mapping between an image's values and the paper's 0-255 tone scale."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+
+import numpy as np
+
+#: Percentiles of the finite values that set the default tone limits of
+#: every dtype but uint8 (robust to a few hot or dead pixels).
+DEFAULT_PERCENTILES = (0.5, 99.5)
+
+
+@dataclasses.dataclass(frozen=True)
+class ToneScale:
+    """Linear map of ``[low, high]`` onto the 0-255 tone scale (clipped)."""
+
+    low: float
+    high: float
+
+    @property
+    def _gain(self) -> float:
+        return 255.0 / (self.high - self.low)
+
+    def to_tones(self, values: np.ndarray) -> np.ndarray:
+        """float32 tones of ``values``; non-finite values become NaN."""
+        if self.low == 0.0 and self.high == 255.0:
+            tones = values.astype(np.float32)  # exact for uint8 and friends
+        else:
+            tones = ((values.astype(np.float64) - self.low) * self._gain).astype(np.float32)
+        np.clip(tones, 0.0, 255.0, out=tones)
+        if tones.dtype.kind == "f" and not np.isfinite(values).all():
+            tones[~np.isfinite(values)] = np.nan
+        return tones
+
+    def from_tones(self, tones: np.ndarray, dtype: np.dtype) -> np.ndarray:
+        """Values of ``dtype`` for ``tones``: rounded and clipped for integers."""
+        values = tones.astype(np.float64) / self._gain + self.low
+        dtype = np.dtype(dtype)
+        if dtype.kind in "iu":
+            info = np.iinfo(dtype)
+            values = np.clip(np.rint(values), info.min, info.max)
+        return values.astype(dtype)
+
+
+def resolve_tone_scale(
+    values: np.ndarray, tone_limits: tuple[float, float] | None
+) -> ToneScale:
+    """The tone scale of an image from the ``tone_limits`` argument.
+
+    ``None`` gives (0, 255) for uint8 data and the ``DEFAULT_PERCENTILES`` of
+    the finite values otherwise. A constant image gets a unit-wide scale.
+    """
+    if tone_limits is not None:
+        if (
+            isinstance(tone_limits, (str, bytes))
+            or not hasattr(tone_limits, "__len__")
+            or len(tone_limits) != 2
+        ):
+            raise TypeError(f"tone_limits must be None or (low, high), got {tone_limits!r}")
+        low, high = tone_limits
+        for value in (low, high):
+            if not isinstance(value, numbers.Real) or isinstance(value, (bool, np.bool_)):
+                raise TypeError(f"tone_limits must hold real numbers, got {tone_limits!r}")
+        low, high = float(low), float(high)
+        if not (math.isfinite(low) and math.isfinite(high)) or not low < high:
+            raise ValueError(f"tone_limits must be finite with low < high, got {tone_limits!r}")
+        return ToneScale(low, high)
+    if values.dtype == np.uint8:
+        return ToneScale(0.0, 255.0)
+    finite = values if values.dtype.kind in "iu" else values[np.isfinite(values)]
+    if finite.size == 0:
+        return ToneScale(0.0, 1.0)
+    low, high = (float(v) for v in np.percentile(finite, DEFAULT_PERCENTILES))
+    if not high > low:
+        high = low + 1.0
+    return ToneScale(low, high)

@@ -1,0 +1,532 @@
+"""Public API: render images with the labyrinthine tiling.
+
+``labyrinth`` renders an image, ``labyrinth_stack`` keeps every pass (the
+paper's Fig. 4) and ``labyrinth_sweep`` varies one parameter (Fig. 3). They
+validate the input, map it to the 0-255 tone scale on which the paper's
+thresholds live, split it into independent 2-D planes and run the numba
+kernel (imported on first use) on each plane.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import numbers
+from collections.abc import Callable, Generator, Sequence
+from typing import Any
+
+import numpy as np
+
+from ._tone_scale import ToneScale, resolve_tone_scale
+from .parameters import (
+    BORDERS,
+    DIAGNOSTIC_FIELDS,
+    ON_EXHAUSTED,
+    PARAMETER_NAMES,
+    SCANS,
+    VARIANCE_RATIOS,
+    LabyrinthParameters,
+    make_parameters,
+)
+from .presets import DEFAULT_PRESET, preset_values
+
+#: dtype of the per-pass diagnostics: one count per field of ``DIAGNOSTIC_FIELDS``.
+DIAGNOSTICS_DTYPE = np.dtype([(name, np.int64) for name in DIAGNOSTIC_FIELDS])
+
+_SUPPORTED_DTYPES = tuple(
+    np.dtype(t)
+    for t in (
+        np.uint8,
+        np.uint16,
+        np.uint32,
+        np.int8,
+        np.int16,
+        np.int32,
+        np.float16,
+        np.float32,
+        np.float64,
+    )
+)
+
+ProgressCallback = Callable[[int, int], Any]
+
+
+def labyrinth(
+    image,
+    *,
+    preset: str = DEFAULT_PRESET,
+    passes: int | None = None,
+    seed: int = 0,
+    mean_threshold: float | None = None,
+    variance_threshold: float | None = None,
+    tone_ranges: int | Sequence[float] | None = None,
+    tones: Sequence[tuple[float, float]] | None = None,
+    max_tries: int | None = None,
+    border: str | None = None,
+    variance_ratio: str | None = None,
+    on_exhausted: str | None = None,
+    include_centre: bool | None = None,
+    scan: str | None = None,
+    channel_axis: int | None = None,
+    tone_limits: tuple[float, float] | None = None,
+    return_diagnostics: bool = False,
+    progress: ProgressCallback | None = None,
+):
+    """Render an image with the labyrinthine tiling of Sparavigna & Montrucchio.
+
+    Each pass scans every 2-D plane from the top-left corner, in place, so
+    that each update is seen by the pixels after it. For a pixel of tone g
+    with local mean M and variance V over its 8 nearest and next-nearest
+    neighbours (Eq. 1):
+
+    1. g is kept if ``|g - M| / M <= mean_threshold`` (Eq. 2);
+    2. otherwise g is left as it is if the variance ratio R2 of Eq. 4
+       exceeds ``variance_threshold``;
+    3. otherwise tones ``g* = T_inf + R (T_sup - T_inf)`` (Eq. 3) are drawn
+       in the tone range that holds g, up to ``max_tries`` times; the first
+       that satisfies Eq. 2 replaces g.
+
+    Parameters
+    ----------
+    image : array_like
+        2-D or nD image of an integer type up to 32 bits or a float type.
+        Every axis before the last two (after removing ``channel_axis``) is
+        a set of independent planes (time, z, channels).
+    preset : str, optional
+        Named parameter set (see ``napari_labyrinth.PRESETS``) that supplies
+        every parameter not given explicitly. ``"paper"`` is the literal
+        reading of the printed text.
+    passes : int, optional
+        Number of passes (>= 0; 0 returns a copy). The paper's Fig. 4
+        iterates the algorithm to enhance edges.
+    seed : int, optional
+        Seed of the counter-based random generator (0 <= seed < 2**64). The
+        result is a pure function of the input, the parameters and the seed.
+    mean_threshold : float, optional
+        t of Eq. 2 (paper: 0.12).
+    variance_threshold : float, optional
+        V of Eq. 4 (paper: 0.50).
+    tone_ranges : int or sequence of float, optional
+        A count of equal tone ranges from a low non-zero tone (10) to 255,
+        or the limits ``L_inf^1 < L_sup^1 = L_inf^2 < ... <= 255`` themselves
+        (paper: 3 ranges). A tone below ``L_inf^1`` belongs to the first range.
+    tones : sequence of (float, float), optional
+        ``(T_inf^i, T_sup^i)`` for each range (Eq. 3). By default T = L;
+        setting ``tone_ranges`` without ``tones`` also resets them to T = L.
+    max_tries : int, optional
+        Draws of Eq. 3 per pixel before giving up (0 to 10000; paper
+        preset: 10, the paper gives no number).
+    border : {"inside", "mirror", "nearest", "wrap"}, optional
+        Neighbours of border pixels: only those inside the image (N is their
+        number; paper preset), or completed as the ``scipy.ndimage`` modes.
+    variance_ratio : {"sqrt(V/N)/M", "sqrt(V)/M"}, optional
+        R2 of Eq. 4: as printed, or with the local standard deviation.
+    on_exhausted : {"keep", "last_draw"}, optional
+        What a pixel becomes when no draw satisfies Eq. 2.
+    include_centre : bool, optional
+        Whether the pixel joins its own M and V (the paper: neighbours only).
+    scan : {"raster", "serpentine"}, optional
+        Scan order: rows left to right, or alternate rows right to left.
+    channel_axis : int, optional
+        Axis of colour channels, each rendered as an independent plane; with
+        4 channels the last one is alpha and is kept as it is.
+    tone_limits : (float, float), optional
+        Values mapped to tones 0 and 255. Default: (0, 255) for uint8, the
+        0.5th and 99.5th percentiles of the finite values for other dtypes
+        (one scale for the whole image, alpha excluded).
+    return_diagnostics : bool, optional
+        Also return the per-pass counts (see Returns).
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each plane and pass.
+
+    Returns
+    -------
+    rendered : ndarray
+        Same shape and dtype as ``image``. Pixels the algorithm did not
+        change keep their exact input value; non-finite pixels stay as they
+        are and never count as neighbours.
+    diagnostics : structured ndarray
+        Only with ``return_diagnostics``: shape ``(passes,) + plane_shape``
+        where ``plane_shape`` is ``image.shape`` without the two spatial
+        axes, fields ``kept_by_mean`` (Eq. 2 held), ``left_by_variance``
+        (Eq. 4 held), ``redrawn``, ``out_of_tries`` and ``skipped``
+        (non-finite or without finite neighbours), which add up to the
+        number of pixels of a plane.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming the parameter, for bad input or parameters.
+
+    Notes
+    -----
+    The thresholds live on the paper's 0-255 tone scale, so other dtypes are
+    mapped there linearly (``tone_limits``, values outside are clipped),
+    processed in float32 and mapped back; changed pixels are rounded to the
+    input dtype, unchanged ones are returned bit for bit.
+
+    References
+    ----------
+    .. [1] A. Sparavigna and B. Montrucchio, "Non-photorealistic image
+           rendering with a labyrinthine tiling", Politecnico di Torino.
+
+    Examples
+    --------
+    >>> from skimage import data
+    >>> from napari_labyrinth import labyrinth
+    >>> rendered = labyrinth(data.camera(), passes=2, seed=1)
+    >>> rendered.shape, rendered.dtype
+    ((512, 512), dtype('uint8'))
+    """
+    parameters = resolve_parameters(
+        preset,
+        passes=passes,
+        mean_threshold=mean_threshold,
+        variance_threshold=variance_threshold,
+        tone_ranges=tone_ranges,
+        tones=tones,
+        max_tries=max_tries,
+        border=border,
+        variance_ratio=variance_ratio,
+        on_exhausted=on_exhausted,
+        include_centre=include_centre,
+        scan=scan,
+    )
+    seed = _validate_seed(seed)
+    prepared = _prepare(image, channel_axis, tone_limits)
+    steps = _render_steps(prepared, parameters, seed, record_passes=False)
+    rendered, diagnostics = _drive(steps, progress, total=prepared.n_planes * parameters.passes)
+    return (rendered, diagnostics) if return_diagnostics else rendered
+
+
+def labyrinth_stack(image, passes: int = 4, **options):
+    """Render ``passes`` passes and keep the image after each one (Fig. 4).
+
+    Parameters
+    ----------
+    image : array_like
+        As for :func:`labyrinth`.
+    passes : int, optional
+        Number of passes (>= 0).
+    **options
+        Any keyword argument of :func:`labyrinth`.
+
+    Returns
+    -------
+    stack : ndarray
+        Shape ``(passes + 1,) + image.shape``, input dtype: index 0 is the
+        input, index k the image after k passes. With
+        ``return_diagnostics=True``, also the diagnostics of :func:`labyrinth`.
+
+    Examples
+    --------
+    >>> from skimage import data
+    >>> from napari_labyrinth import labyrinth_stack
+    >>> labyrinth_stack(data.camera(), passes=3).shape
+    (4, 512, 512)
+    """
+    return_diagnostics = options.pop("return_diagnostics", False)
+    progress = options.pop("progress", None)
+    seed = _validate_seed(options.pop("seed", 0))
+    channel_axis = options.pop("channel_axis", None)
+    tone_limits = options.pop("tone_limits", None)
+    parameters = resolve_parameters(options.pop("preset", DEFAULT_PRESET), passes=passes, **options)
+    prepared = _prepare(image, channel_axis, tone_limits)
+    steps = _render_steps(prepared, parameters, seed, record_passes=True)
+    stack, diagnostics = _drive(steps, progress, total=prepared.n_planes * parameters.passes)
+    return (stack, diagnostics) if return_diagnostics else stack
+
+
+def labyrinth_sweep(
+    image,
+    parameter: str = "variance_threshold",
+    values: Sequence[Any] = (0.47, 0.50, 0.53),
+    **options,
+):
+    """Render the image once per value of one parameter (the paper's Fig. 3).
+
+    Parameters
+    ----------
+    image : array_like
+        As for :func:`labyrinth`.
+    parameter : str, optional
+        Name of the parameter to vary: any parameter of the algorithm
+        (``mean_threshold``, ``variance_threshold``, ``passes``, ...) or
+        ``seed``.
+    values : sequence, optional
+        The values, at least one. Every rendering uses the same seed unless
+        ``parameter`` is ``"seed"``.
+    **options
+        Any other keyword argument of :func:`labyrinth`.
+
+    Returns
+    -------
+    sweep : ndarray
+        Shape ``(len(values),) + image.shape``, input dtype. With
+        ``return_diagnostics=True``, also a list with the diagnostics of each
+        rendering.
+
+    Examples
+    --------
+    >>> from skimage import data
+    >>> from napari_labyrinth import labyrinth_sweep
+    >>> labyrinth_sweep(data.camera(), "variance_threshold", [0.47, 0.5, 0.53]).shape
+    (3, 512, 512)
+    """
+    if parameter not in PARAMETER_NAMES + ("seed",):
+        raise ValueError(
+            f"parameter must be one of {', '.join(PARAMETER_NAMES + ('seed',))}; "
+            f"got {parameter!r}"
+        )
+    if parameter in options:
+        raise TypeError(f"{parameter} is swept; do not also pass it as a keyword")
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__len__") or len(values) == 0:
+        raise ValueError(f"values must be a non-empty sequence, got {values!r}")
+    return_diagnostics = options.pop("return_diagnostics", False)
+    progress = options.pop("progress", None)
+    channel_axis = options.pop("channel_axis", None)
+    tone_limits = options.pop("tone_limits", None)
+    preset = options.pop("preset", DEFAULT_PRESET)
+    seed = options.pop("seed", 0)
+    runs = []
+    for value in values:
+        run_options = dict(options)
+        if parameter == "seed":
+            run_seed = value
+        else:
+            run_seed = seed
+            run_options[parameter] = value
+        runs.append((resolve_parameters(preset, **run_options), _validate_seed(run_seed)))
+    prepared = _prepare(image, channel_axis, tone_limits)
+    total = prepared.n_planes * sum(p.passes for p, _ in runs)
+    done = 0
+    renders, all_diagnostics = [], []
+    for parameters, run_seed in runs:
+
+        def offset_progress(step, _total, start=done):
+            if progress is not None:
+                progress(start + step, total)
+
+        steps = _render_steps(prepared, parameters, run_seed, record_passes=False)
+        rendered, diagnostics = _drive(steps, offset_progress, total=total)
+        done += prepared.n_planes * parameters.passes
+        renders.append(rendered)
+        all_diagnostics.append(diagnostics)
+    sweep = np.stack(renders)
+    return (sweep, all_diagnostics) if return_diagnostics else sweep
+
+
+def resolve_parameters(preset: str = DEFAULT_PRESET, **overrides: Any) -> LabyrinthParameters:
+    """Parameters of ``preset`` with every non-None override applied, validated.
+
+    Setting ``tone_ranges`` without ``tones`` resets the tones to T = L.
+    """
+    values = preset_values(preset)
+    given = {name: value for name, value in overrides.items() if value is not None}
+    unknown = set(given) - set(PARAMETER_NAMES)
+    if unknown:
+        raise TypeError(f"unknown parameter(s): {', '.join(sorted(unknown))}")
+    if "tone_ranges" in given and "tones" not in given:
+        values["tones"] = None
+    values.update(given)
+    return make_parameters(**values)
+
+
+def _validate_seed(seed: Any) -> int:
+    if not isinstance(seed, numbers.Integral) or isinstance(seed, (bool, np.bool_)):
+        raise TypeError(f"seed must be an integer, got {seed!r}")
+    seed = int(seed)
+    if not 0 <= seed < 2**64:
+        raise ValueError(f"seed must be between 0 and 2**64 - 1, got {seed}")
+    return seed
+
+
+@dataclasses.dataclass
+class _Prepared:
+    """An input image split into planes, with its tone scale."""
+
+    image: np.ndarray  # the caller's data, never written to
+    channel_axis: int | None
+    scale: ToneScale
+
+    @property
+    def planes(self) -> np.ndarray:
+        """The image as ``leading_shape + (H, W)``, channels last of the leading axes."""
+        return self.to_planes(self.image)
+
+    def to_planes(self, array: np.ndarray) -> np.ndarray:
+        """View of an array shaped like the image in the layout of ``planes``."""
+        if self.channel_axis is None:
+            return array
+        return np.moveaxis(array, self.channel_axis, -3)
+
+    def to_image_layout(self, leading: np.ndarray) -> np.ndarray:
+        """View of ``(k,) + leading_shape`` data with the channel axis back in place."""
+        if self.channel_axis is None:
+            return leading
+        spatial = _spatial_axes(self.image.ndim, self.channel_axis)
+        position = sum(1 for axis in range(self.channel_axis) if axis not in spatial)
+        return np.moveaxis(leading, -1, 1 + position)
+
+    @property
+    def n_planes(self) -> int:
+        return int(np.prod(self.planes.shape[:-2]))
+
+    def is_alpha(self, index: tuple[int, ...]) -> bool:
+        return self.channel_axis is not None and self.planes.shape[-3] == 4 and index[-1] == 3
+
+
+def _spatial_axes(ndim: int, channel_axis: int | None) -> tuple[int, int]:
+    axes = [axis for axis in range(ndim) if axis != channel_axis]
+    return axes[-2], axes[-1]
+
+
+def _prepare(image: Any, channel_axis: int | None, tone_limits: Any) -> _Prepared:
+    array = _validate_image(image)
+    if channel_axis is not None:
+        if not isinstance(channel_axis, numbers.Integral) or isinstance(channel_axis, bool):
+            raise TypeError(f"channel_axis must be an integer or None, got {channel_axis!r}")
+        if array.ndim < 3:
+            raise ValueError(
+                f"channel_axis needs an image of at least 3 dimensions, got {array.ndim}"
+            )
+        if not -array.ndim <= channel_axis < array.ndim:
+            raise ValueError(
+                f"channel_axis {channel_axis} is out of range for an image of "
+                f"{array.ndim} dimensions"
+            )
+        channel_axis = int(channel_axis) % array.ndim
+    prepared = _Prepared(array, channel_axis, ToneScale(0.0, 255.0))
+    colour = prepared.planes
+    if channel_axis is not None and colour.shape[-3] == 4:
+        colour = colour[..., :3, :, :]  # the tone scale ignores alpha
+    prepared.scale = resolve_tone_scale(colour, tone_limits)
+    return prepared
+
+
+def _validate_image(image: Any) -> np.ndarray:
+    if isinstance(image, (str, bytes)) or image is None:
+        raise TypeError(f"image must be an array, got {type(image).__name__}")
+    array = np.asarray(image)
+    if array.dtype not in _SUPPORTED_DTYPES:
+        if array.dtype.kind in "iu":
+            hint = "; 64-bit integers usually hold labels: cast an intensity image to float32"
+        else:
+            hint = ""
+        raise TypeError(
+            f"image dtype {array.dtype} is not supported: use an integer type up to "
+            f"32 bits or a float type{hint}"
+        )
+    if array.ndim < 2:
+        raise ValueError(f"image must have at least 2 dimensions, got {array.ndim}")
+    if array.size == 0:
+        raise ValueError(f"image is empty (shape {array.shape})")
+    return array
+
+
+def _drive(
+    steps: Generator[int, None, tuple[np.ndarray, np.ndarray]],
+    progress: ProgressCallback | None,
+    total: int,
+):
+    """Run a ``_render_steps`` generator to its end, reporting progress."""
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be callable, got {progress!r}")
+    while True:
+        try:
+            done = next(steps)
+        except StopIteration as finished:
+            return finished.value
+        if progress is not None:
+            progress(done, total)
+
+
+def _render_steps(
+    prepared: _Prepared,
+    parameters: LabyrinthParameters,
+    seed: int,
+    *,
+    record_passes: bool,
+) -> Generator[int, None, tuple[np.ndarray, np.ndarray]]:
+    """Render plane by plane, yielding the count of plane-passes done.
+
+    Returns (as the generator's value) the rendered image, or with
+    ``record_passes`` the stack of the input and every pass, and the
+    diagnostics.
+    """
+    from ._kernel import labyrinth_pass  # numba is imported on first use only
+
+    image = prepared.image
+    passes = parameters.passes
+    if record_passes:
+        result = np.empty((passes + 1,) + image.shape, dtype=image.dtype)
+        result[0] = image
+        for k in range(1, passes + 1):
+            result[k] = image
+        targets = [prepared.to_planes(result[k]) for k in range(1, passes + 1)]
+    else:
+        result = image.copy()
+        targets = [prepared.to_planes(result)]
+    source_planes = prepared.planes
+    leading_shape = source_planes.shape[:-2]
+    plane_size = source_planes.shape[-2] * source_planes.shape[-1]
+    counts = np.zeros((passes,) + leading_shape + (len(DIAGNOSTIC_FIELDS),), dtype=np.int64)
+
+    limits = np.asarray(parameters.tone_ranges, dtype=np.float64)
+    tone_low = np.array([low for low, _ in parameters.tones], dtype=np.float64)
+    tone_high = np.array([high for _, high in parameters.tones], dtype=np.float64)
+    range_bounds = np.ascontiguousarray(limits[1:-1])
+    options = (
+        BORDERS.index(parameters.border),
+        VARIANCE_RATIOS.index(parameters.variance_ratio),
+        ON_EXHAUSTED.index(parameters.on_exhausted),
+        parameters.include_centre,
+        SCANS.index(parameters.scan),
+    )
+    done = 0
+    for plane_index, index in enumerate(np.ndindex(leading_shape)):
+        if prepared.is_alpha(index):
+            counts[(slice(None),) + index + (DIAGNOSTIC_FIELDS.index("skipped"),)] = plane_size
+            continue
+        source = source_planes[index]
+        initial = np.ascontiguousarray(prepared.scale.to_tones(source))
+        has_nonfinite = not np.isfinite(initial).all()
+        work = initial.copy()
+        for pass_index in range(passes):
+            labyrinth_pass(
+                work,
+                parameters.mean_threshold,
+                parameters.variance_threshold,
+                range_bounds,
+                tone_low,
+                tone_high,
+                parameters.max_tries,
+                seed,
+                plane_index,
+                pass_index,
+                *options,
+                has_nonfinite,
+                counts[(pass_index,) + index],
+            )
+            if record_passes:
+                _write_changes(targets[pass_index][index], source, initial, work, prepared.scale)
+            done += 1
+            yield done
+        if not record_passes and passes:
+            _write_changes(targets[0][index], source, initial, work, prepared.scale)
+    diagnostics = prepared.to_image_layout(
+        counts.view(DIAGNOSTICS_DTYPE)[..., 0]
+    )
+    return result, np.ascontiguousarray(diagnostics)
+
+
+def _write_changes(
+    target: np.ndarray,
+    source: np.ndarray,
+    initial: np.ndarray,
+    work: np.ndarray,
+    scale: ToneScale,
+) -> None:
+    """Write into ``target`` the source values, mapped back where the tones changed."""
+    changed = initial.view(np.uint32) != work.view(np.uint32)
+    target[...] = source
+    target[changed] = scale.from_tones(work[changed], target.dtype)
