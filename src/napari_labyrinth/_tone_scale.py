@@ -26,13 +26,19 @@ class ToneScale:
 
     def to_tones(self, values: np.ndarray) -> np.ndarray:
         """float32 tones of ``values``; non-finite values become NaN."""
-        if self.low == 0.0 and self.high == 255.0:
-            tones = values.astype(np.float32)  # exact for uint8 and friends
+        if values.dtype == np.uint8 and (self.low, self.high) == (0.0, 255.0):
+            return values.astype(np.float32)  # the paper's own scale
+        if values.dtype.itemsize <= 2 or values.dtype == np.float32:
+            # values are exact in float32: map there, with half the memory traffic
+            tones = np.subtract(values, np.float32(self.low), dtype=np.float32)
+            tones *= np.float32(self._gain)
         else:
-            tones = ((values.astype(np.float64) - self.low) * self._gain).astype(np.float32)
+            tones = ((values - self.low) * self._gain).astype(np.float32)
         np.clip(tones, 0.0, 255.0, out=tones)
-        if tones.dtype.kind == "f" and not np.isfinite(values).all():
-            tones[~np.isfinite(values)] = np.nan
+        if values.dtype.kind == "f":
+            finite = np.isfinite(values)
+            if not finite.all():
+                tones[~finite] = np.nan
         return tones
 
     def from_tones(self, tones: np.ndarray, dtype: np.dtype) -> np.ndarray:

@@ -489,7 +489,7 @@ def _render_steps(
             continue
         source = source_planes[index]
         initial = np.ascontiguousarray(prepared.scale.to_tones(source))
-        has_nonfinite = not np.isfinite(initial).all()
+        has_nonfinite = image.dtype.kind == "f" and not np.isfinite(initial).all()
         work = initial.copy()
         for pass_index in range(passes):
             labyrinth_pass(
@@ -500,7 +500,7 @@ def _render_steps(
                 tone_low,
                 tone_high,
                 parameters.max_tries,
-                seed,
+                np.uint64(seed),
                 plane_index,
                 pass_index,
                 *options,
@@ -508,11 +508,11 @@ def _render_steps(
                 counts[(pass_index,) + index],
             )
             if record_passes:
-                _write_changes(targets[pass_index][index], source, initial, work, prepared.scale)
+                _write_changes(targets[pass_index][index], initial, work, prepared.scale)
             done += 1
             yield done
         if not record_passes and passes:
-            _write_changes(targets[0][index], source, initial, work, prepared.scale)
+            _write_changes(targets[0][index], initial, work, prepared.scale)
     diagnostics = prepared.to_image_layout(
         counts.view(DIAGNOSTICS_DTYPE)[..., 0]
     )
@@ -521,12 +521,10 @@ def _render_steps(
 
 def _write_changes(
     target: np.ndarray,
-    source: np.ndarray,
     initial: np.ndarray,
     work: np.ndarray,
     scale: ToneScale,
 ) -> None:
-    """Write into ``target`` the source values, mapped back where the tones changed."""
+    """Map back into ``target`` (holding the source values) the tones that changed."""
     changed = initial.view(np.uint32) != work.view(np.uint32)
-    target[...] = source
     target[changed] = scale.from_tones(work[changed], target.dtype)

@@ -1,0 +1,118 @@
+"""Speed of the labyrinth kernel: prints figures, asserts nothing.
+
+Run with ``make bench`` or ``python benchmarks/bench_kernel.py``. Reports
+Mpx/s per pass (best of several runs, JIT compilation excluded) for the
+numba kernel alone, for ``labyrinth()`` (tone mapping and copies included)
+and for the pure-Python oracle; import time; and the first call in a new
+process with a cold and with a warm numba cache.
+"""
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+
+def camera(size, dtype):
+    from skimage import data, transform
+
+    image = transform.resize(data.camera(), (size, size), order=1, preserve_range=True)
+    if dtype == np.uint16:
+        return (image * 256).astype(np.uint16)
+    return image.astype(np.uint8)
+
+
+def best_of(fn, repeats):
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def kernel_runner(image):
+    from napari_labyrinth._kernel import labyrinth_pass
+    from napari_labyrinth.api import _prepare, resolve_parameters
+    from napari_labyrinth.parameters import BORDERS, ON_EXHAUSTED, SCANS, VARIANCE_RATIOS
+
+    p = resolve_parameters("paper")
+    tones = _prepare(image, None, None).scale.to_tones(image)
+    limits = np.asarray(p.tone_ranges)
+    low = np.array([t[0] for t in p.tones])
+    high = np.array([t[1] for t in p.tones])
+    counts = np.zeros(5, np.int64)
+
+    def run():
+        work = tones.copy()
+        labyrinth_pass(
+            work, p.mean_threshold, p.variance_threshold, limits[1:-1].copy(), low, high,
+            p.max_tries, np.uint64(0), 0, 0, BORDERS.index(p.border),
+            VARIANCE_RATIOS.index(p.variance_ratio), ON_EXHAUSTED.index(p.on_exhausted),
+            p.include_centre, SCANS.index(p.scan), False, counts,
+        )
+
+    copy_time = best_of(lambda: tones.copy(), 5)
+    return run, copy_time
+
+
+def subprocess_seconds(code, env):
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True
+    )
+    return float(result.stdout.strip().splitlines()[-1])
+
+
+def main():
+    from napari_labyrinth import labyrinth
+    from napari_labyrinth._reference import reference_pass
+    from napari_labyrinth.api import resolve_parameters
+
+    print("labyrinth kernel benchmark, preset 'paper', 1 pass, single thread")
+    print(f"{'image':<22}{'kernel Mpx/s':>14}{'labyrinth() Mpx/s':>20}{'changed':>10}")
+    for size in (512, 2048, 4096):
+        for dtype in (np.uint8, np.uint16):
+            image = camera(size, dtype)
+            run, copy_time = kernel_runner(image)
+            run()  # compile
+            kernel = best_of(run, 7) - copy_time
+            labyrinth(image)
+            api = best_of(lambda: labyrinth(image), 3)
+            changed = np.mean(labyrinth(image) != image)
+            name = f"camera {size}^2 {np.dtype(dtype).name}"
+            print(f"{name:<22}{image.size / kernel / 1e6:>14.0f}{image.size / api / 1e6:>20.0f}"
+                  f"{changed:>10.2%}")
+
+    p = resolve_parameters("paper")
+    small = camera(512, np.uint8)[:64, :64].astype(np.float32)
+    start = time.perf_counter()
+    reference_pass(small, mean_threshold=p.mean_threshold, variance_threshold=p.variance_threshold,
+                   range_limits=p.tone_ranges, tones=p.tones, max_tries=p.max_tries, seed=0)
+    oracle = time.perf_counter() - start
+    print(f"pure-Python oracle, camera 64^2: {small.size / oracle / 1e6:.3f} Mpx/s")
+
+    env = dict(os.environ)
+    import_code = (
+        "import time; t = time.perf_counter(); import napari_labyrinth;"
+        "print(time.perf_counter() - t)"
+    )
+    imports = [subprocess_seconds(import_code, env) for _ in range(3)]
+    print(f"import napari_labyrinth: {min(imports):.3f} s (best of 3)")
+
+    first_call = (
+        "import time; t = time.perf_counter(); import numpy as np; from napari_labyrinth import"
+        " labyrinth; labyrinth(np.zeros((64, 64), np.uint8)); print(time.perf_counter() - t)"
+    )
+    with tempfile.TemporaryDirectory() as cache:
+        env["NUMBA_CACHE_DIR"] = cache
+        cold = subprocess_seconds(first_call, env)
+        warm = subprocess_seconds(first_call, env)
+    print(f"import + first call, new process, cold numba cache (JIT compile): {cold:.2f} s")
+    print(f"import + first call, new process, warm numba cache: {warm:.2f} s")
+
+
+if __name__ == "__main__":
+    main()
