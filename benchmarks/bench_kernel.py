@@ -37,22 +37,44 @@ def best_of(fn, repeats):
 def kernel_runner(image):
     from napari_labyrinth._kernel import labyrinth_pass
     from napari_labyrinth.api import _prepare, resolve_parameters
-    from napari_labyrinth.parameters import BORDERS, ON_EXHAUSTED, SCANS, VARIANCE_RATIOS
+    from napari_labyrinth.parameters import (
+        BORDERS,
+        CONDITION_ORDERS,
+        ON_EXHAUSTED,
+        SCANS,
+        VARIANCE_ACTIONS,
+        VARIANCE_RATIOS,
+    )
 
     p = resolve_parameters("paper")
     tones = _prepare(image, None, None).scale.to_tones(image)
     limits = np.asarray(p.tone_ranges)
     low = np.array([t[0] for t in p.tones])
     high = np.array([t[1] for t in p.tones])
-    counts = np.zeros(5, np.int64)
+    counts = np.zeros(6, np.int64)
 
     def run():
         work = tones.copy()
         labyrinth_pass(
-            work, p.mean_threshold, p.variance_threshold, limits[1:-1].copy(), low, high,
-            p.max_tries, np.uint64(0), 0, 0, BORDERS.index(p.border),
-            VARIANCE_RATIOS.index(p.variance_ratio), ON_EXHAUSTED.index(p.on_exhausted),
-            p.include_centre, SCANS.index(p.scan), False, counts,
+            work,
+            p.mean_threshold,
+            p.variance_threshold,
+            limits[1:-1].copy(),
+            low,
+            high,
+            p.max_tries,
+            np.uint64(0),
+            0,
+            0,
+            BORDERS.index(p.border),
+            VARIANCE_RATIOS.index(p.variance_ratio),
+            VARIANCE_ACTIONS.index(p.variance_action),
+            CONDITION_ORDERS.index(p.condition_order) == 1,
+            ON_EXHAUSTED.index(p.on_exhausted),
+            p.include_centre,
+            SCANS.index(p.scan),
+            False,
+            counts,
         )
 
     copy_time = best_of(lambda: tones.copy(), 5)
@@ -83,14 +105,23 @@ def main():
             api = best_of(lambda: labyrinth(image), 3)
             changed = np.mean(labyrinth(image) != image)
             name = f"camera {size}^2 {np.dtype(dtype).name}"
-            print(f"{name:<22}{image.size / kernel / 1e6:>14.0f}{image.size / api / 1e6:>20.0f}"
-                  f"{changed:>10.2%}")
+            print(
+                f"{name:<22}{image.size / kernel / 1e6:>14.0f}{image.size / api / 1e6:>20.0f}"
+                f"{changed:>10.2%}"
+            )
 
     p = resolve_parameters("paper")
     small = camera(512, np.uint8)[:64, :64].astype(np.float32)
     start = time.perf_counter()
-    reference_pass(small, mean_threshold=p.mean_threshold, variance_threshold=p.variance_threshold,
-                   range_limits=p.tone_ranges, tones=p.tones, max_tries=p.max_tries, seed=0)
+    reference_pass(
+        small,
+        mean_threshold=p.mean_threshold,
+        variance_threshold=p.variance_threshold,
+        range_limits=p.tone_ranges,
+        tones=p.tones,
+        max_tries=p.max_tries,
+        seed=0,
+    )
     oracle = time.perf_counter() - start
     print(f"pure-Python oracle, camera 64^2: {small.size / oracle / 1e6:.3f} Mpx/s")
 

@@ -169,7 +169,11 @@ def test_all_nan_image_is_returned_as_it_is():
 
 
 def test_constant_image_is_unchanged():
-    for image in (np.full((8, 9), 0.25), np.zeros((8, 9), np.uint16), np.full((4, 4), 7, np.uint8)):
+    for image in (
+        np.full((8, 9), 0.25),
+        np.zeros((8, 9), np.uint16),
+        np.full((4, 4), 7, np.uint8),
+    ):
         np.testing.assert_array_equal(labyrinth(image, passes=3), image)
 
 
@@ -260,6 +264,8 @@ def test_options_change_the_result(camera):
     for option in (
         dict(border="mirror"),
         dict(variance_ratio="sqrt(V)/M"),
+        dict(variance_action="push"),
+        dict(condition_order="variance_first", variance_ratio="sqrt(V)/M"),
         dict(on_exhausted="last_draw"),
         dict(include_centre=True),
         dict(scan="serpentine"),
@@ -321,6 +327,8 @@ def test_bad_images_raise_clear_errors(image, error, match):
         (dict(tones=((20, 10), (1, 2), (3, 4))), ValueError, "T_inf <= T_sup"),
         (dict(border="reflect"), ValueError, "border"),
         (dict(variance_ratio="V/M"), ValueError, "variance_ratio"),
+        (dict(variance_action="shove"), ValueError, "variance_action"),
+        (dict(condition_order="random"), ValueError, "condition_order"),
         (dict(on_exhausted="random"), ValueError, "on_exhausted"),
         (dict(include_centre="yes"), TypeError, "include_centre"),
         (dict(scan="spiral"), ValueError, "scan"),

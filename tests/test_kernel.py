@@ -6,15 +6,20 @@ import math
 import numpy as np
 import pytest
 
-from napari_labyrinth._kernel import labyrinth_pass, stream_key
+from napari_labyrinth import PRESETS
+from napari_labyrinth._kernel import stream_key
 from napari_labyrinth._reference import reference_pass, splitmix64, uniform
+from napari_labyrinth.api import run_pass
 from napari_labyrinth.parameters import (
     BORDERS,
+    CONDITION_ORDERS,
     DIAGNOSTIC_FIELDS,
     ON_EXHAUSTED,
     SCANS,
+    VARIANCE_ACTIONS,
     VARIANCE_RATIOS,
     equal_tone_ranges,
+    make_parameters,
 )
 
 LIMITS = equal_tone_ranges(3)
@@ -22,43 +27,18 @@ TONES = tuple(zip(LIMITS[:-1], LIMITS[1:]))
 
 
 def run_kernel(
-    plane,
-    *,
-    mean_threshold=0.12,
-    variance_threshold=0.5,
-    limits=LIMITS,
-    tones=TONES,
-    max_tries=10,
-    seed=0,
-    plane_index=0,
-    pass_index=0,
-    border="inside",
-    variance_ratio="sqrt(V/N)/M",
-    on_exhausted="keep",
-    include_centre=False,
-    scan="raster",
+    plane, *, limits=LIMITS, tones=TONES, seed=0, plane_index=0, pass_index=0, **options
 ):
     """One kernel pass on a copy; returns (plane, counts dict)."""
+    values = dict(PRESETS["paper"], tone_ranges=limits, tones=tones)
+    values.update(options)
     work = np.ascontiguousarray(plane, dtype=np.float32).copy()
-    counts = np.zeros(len(DIAGNOSTIC_FIELDS), dtype=np.int64)
-    labyrinth_pass(
+    counts = run_pass(
         work,
-        mean_threshold,
-        variance_threshold,
-        np.asarray(limits[1:-1], dtype=np.float64),
-        np.array([t[0] for t in tones], dtype=np.float64),
-        np.array([t[1] for t in tones], dtype=np.float64),
-        max_tries,
-        np.uint64(seed),
-        plane_index,
-        pass_index,
-        BORDERS.index(border),
-        VARIANCE_RATIOS.index(variance_ratio),
-        ON_EXHAUSTED.index(on_exhausted),
-        include_centre,
-        SCANS.index(scan),
-        not np.isfinite(work).all(),
-        counts,
+        make_parameters(**values),
+        seed=seed,
+        plane_index=plane_index,
+        pass_index=pass_index,
     )
     return work, dict(zip(DIAGNOSTIC_FIELDS, counts.tolist()))
 
@@ -98,16 +78,31 @@ def random_planes():
 
 
 PLANES = random_planes()
-OPTION_GRID = list(itertools.product(BORDERS, VARIANCE_RATIOS, ON_EXHAUSTED, (False, True), SCANS))
+OPTION_GRID = list(
+    itertools.product(
+        BORDERS,
+        VARIANCE_RATIOS,
+        VARIANCE_ACTIONS,
+        CONDITION_ORDERS,
+        ON_EXHAUSTED,
+        (False, True),
+        SCANS,
+    )
+)
 
 
-@pytest.mark.parametrize("border,variance_ratio,on_exhausted,include_centre,scan", OPTION_GRID)
+@pytest.mark.parametrize(
+    "border,variance_ratio,variance_action,condition_order,on_exhausted,include_centre,scan",
+    OPTION_GRID,
+)
 def test_kernel_matches_reference_bit_for_bit(
-    border, variance_ratio, on_exhausted, include_centre, scan
+    border, variance_ratio, variance_action, condition_order, on_exhausted, include_centre, scan
 ):
     options = dict(
         border=border,
         variance_ratio=variance_ratio,
+        variance_action=variance_action,
+        condition_order=condition_order,
         on_exhausted=on_exhausted,
         include_centre=include_centre,
         scan=scan,
@@ -126,6 +121,8 @@ def test_kernel_matches_reference_bit_for_bit(
             for field in seen:
                 seen[field] += got_counts[field]
     # the images were chosen so that every branch of the algorithm runs
+    if variance_action == "leave":
+        assert seen.pop("pushed") == 0
     assert all(count > 0 for count in seen.values()), seen
 
 
@@ -170,7 +167,9 @@ def test_eq2_keeps_pixels_close_to_their_mean():
     plane = np.array([[100.0, 105.0, 110.0]], dtype=np.float32)
     out, counts = run_kernel(plane)
     assert_bitwise_equal(out, plane)
-    assert counts == dict(kept_by_mean=3, left_by_variance=0, redrawn=0, out_of_tries=0, skipped=0)
+    assert counts == dict(
+        kept_by_mean=3, left_by_variance=0, pushed=0, redrawn=0, out_of_tries=0, skipped=0
+    )
 
 
 def test_eq2_threshold_is_inclusive():
@@ -239,6 +238,41 @@ def test_include_centre_joins_the_mean():
     assert without["kept_by_mean"] == 0 and without["out_of_tries"] == 3
     _, with_centre = run_kernel(plane, mean_threshold=0.25, max_tries=0, include_centre=True)
     assert with_centre["kept_by_mean"] == 3
+
+
+def test_push_draws_further_from_the_mean_on_the_side_of_g():
+    # pixel 1 of [200, 30, 20]: Eq. 4 holds (0.579 > 0.5), g = 30 < M = 110 with
+    # |g - M| / M = 0.727; a push draws in [L_inf^1, M) = [10, 110) until
+    # |g* - 110| / 110 > 0.727, i.e. g* < 30.
+    plane = np.array([[200.0, 30.0, 20.0]], dtype=np.float32)
+    seed = 1
+    expected = None
+    for attempt in range(10):
+        draw = float(np.float32(10.0 + uniform(seed, 0, 0, 1, attempt) * (110.0 - 10.0)))
+        if draw < 110.0 and (110.0 - draw) / 110.0 > 80.0 / 110.0:
+            expected = draw
+            break
+    out, counts = run_kernel(plane, seed=seed, variance_action="push", max_tries=10)
+    want, _ = run_reference(plane, seed=seed, variance_action="push", max_tries=10)
+    assert_bitwise_equal(out, want)
+    if expected is None:
+        assert out[0, 1] == 30.0 and counts["left_by_variance"] == 1
+    else:
+        assert out[0, 1] == np.float32(expected) and expected < 30.0
+        assert counts["pushed"] == 1
+
+
+def test_variance_first_acts_on_pixels_close_to_their_mean():
+    # pixel 1 of [250, 100, 10]: M = 130, |100 - 130| / 130 = 0.23; with
+    # t = 0.3 Eq. 2 holds, and sqrt(V) / M = 120 / 130 = 0.92 > 0.5 holds too.
+    plane = np.array([[250.0, 100.0, 10.0]], dtype=np.float32)
+    options = dict(mean_threshold=0.3, variance_ratio="sqrt(V)/M", max_tries=50)
+    out, counts = run_kernel(plane, variance_action="push", **options)
+    assert out[0, 1] == 100.0  # mean first: kept by Eq. 2
+    out, counts = run_kernel(
+        plane, variance_action="push", condition_order="variance_first", **options
+    )
+    assert out[0, 1] < 100.0 and counts["pushed"] >= 1  # pushed towards black
 
 
 def test_zero_mean_never_divides():

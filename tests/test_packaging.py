@@ -35,9 +35,20 @@ def test_npe2_validates_the_installed_plugin():
 def test_wheel_carries_the_root_manifest_and_validates(tmp_path):
     wheel_dir = tmp_path / "wheel"
     build = subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
-         "-w", str(wheel_dir), str(ROOT)],
-        capture_output=True, text=True, timeout=600,
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--no-deps",
+            "--no-build-isolation",
+            "-w",
+            str(wheel_dir),
+            str(ROOT),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
     )
     assert build.returncode == 0, build.stdout + build.stderr
     (wheel,) = wheel_dir.glob("napari_labyrinth-*.whl")
@@ -51,20 +62,31 @@ def test_wheel_carries_the_root_manifest_and_validates(tmp_path):
     target = tmp_path / "site"
     install = subprocess.run(
         [sys.executable, "-m", "pip", "install", "--no-deps", "--target", str(target), str(wheel)],
-        capture_output=True, text=True, timeout=600,
+        capture_output=True,
+        text=True,
+        timeout=600,
     )
     assert install.returncode == 0, install.stdout + install.stderr
     env = dict(os.environ, PYTHONPATH=str(target))
     where = subprocess.run(
-        [sys.executable, "-c",
-         "import napari_labyrinth, importlib.metadata as m;"
-         "print(napari_labyrinth.__file__);"
-         "print(m.distribution('napari-labyrinth').locate_file(''))"],
-        capture_output=True, text=True, env=env, timeout=300,
+        [
+            sys.executable,
+            "-c",
+            "import napari_labyrinth, importlib.metadata as m;"
+            "print(napari_labyrinth.__file__);"
+            "print(m.distribution('napari-labyrinth').locate_file(''))",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
     )
     assert where.stdout.startswith(str(target)), where.stdout + where.stderr
     validate = subprocess.run(
-        NPE2 + ["validate", "napari-labyrinth"], capture_output=True, text=True, env=env,
+        NPE2 + ["validate", "napari-labyrinth"],
+        capture_output=True,
+        text=True,
+        env=env,
         timeout=300,
     )
     assert validate.returncode == 0, validate.stdout + validate.stderr

@@ -9,8 +9,10 @@ from napari_labyrinth import DIAGNOSTIC_FIELDS, labyrinth
 from napari_labyrinth._reference import reference_pass
 from napari_labyrinth.parameters import (
     BORDERS,
+    CONDITION_ORDERS,
     ON_EXHAUSTED,
     SCANS,
+    VARIANCE_ACTIONS,
     VARIANCE_RATIOS,
     equal_tone_ranges,
 )
@@ -39,6 +41,8 @@ options = st.fixed_dictionaries(
         "seed": st.integers(0, 2**64 - 1),
         "border": st.sampled_from(BORDERS),
         "variance_ratio": st.sampled_from(VARIANCE_RATIOS),
+        "variance_action": st.sampled_from(VARIANCE_ACTIONS),
+        "condition_order": st.sampled_from(CONDITION_ORDERS),
         "on_exhausted": st.sampled_from(ON_EXHAUSTED),
         "include_centre": st.booleans(),
         "scan": st.sampled_from(SCANS),

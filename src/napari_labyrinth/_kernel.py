@@ -115,6 +115,8 @@ def labyrinth_pass(
     pass_index,
     border,
     variance_ratio,
+    variance_action,
+    variance_first,
     on_exhausted,
     include_centre,
     scan,
@@ -140,15 +142,17 @@ def labyrinth_pass(
         Draws of Eq. 3 before giving up.
     seed, plane_index, pass_index : int
         Select the random stream (see ``stream_key``).
-    border, variance_ratio, on_exhausted, scan : int
+    border, variance_ratio, variance_action, on_exhausted, scan : int
         Index of the option in ``parameters.BORDERS``, ``VARIANCE_RATIOS``,
-        ``ON_EXHAUSTED`` and ``SCANS``.
+        ``VARIANCE_ACTIONS``, ``ON_EXHAUSTED`` and ``SCANS``.
+    variance_first : bool
+        Test Eq. 4 before Eq. 2 (``condition_order="variance_first"``).
     include_centre : bool
         Whether the pixel itself joins M and V (Eq. 1).
     has_nonfinite : bool
         False promises that every value of ``plane`` is finite, which lets
         interior pixels take a path without checks.
-    counts : (5,) int64 array
+    counts : (6,) int64 array
         Incremented in the order of ``parameters.DIAGNOSTIC_FIELDS``.
     """
     height, width = plane.shape
@@ -163,7 +167,7 @@ def labyrinth_pass(
             x = width - 1 - step if reverse else step
             g = np.float64(plane[y, x])
             if not math.isfinite(g):
-                counts[4] += 1
+                counts[5] += 1
                 continue
 
             # Eq. 1: the 8 nearest and next-nearest neighbours, summed in
@@ -193,7 +197,7 @@ def labyrinth_pass(
                             neighbour_sum += value
                             count += 1
                 if count == 0:
-                    counts[4] += 1
+                    counts[5] += 1
                     continue
             if include_centre:
                 n = count + 1
@@ -202,12 +206,14 @@ def labyrinth_pass(
                 n = count
                 mean = neighbour_sum / n
 
-            # Eq. 2: keep g when it is close to the local mean.
-            if _ratio(abs(g - mean), mean) <= mean_threshold:
+            # Eq. 2: keep g when it is close to the local mean (with the
+            # variance-first order, only once Eq. 4 has not fired).
+            mean_ratio = _ratio(abs(g - mean), mean)
+            if mean_ratio <= mean_threshold and not variance_first:
                 counts[0] += 1
                 continue
 
-            # Eq. 4: leave g where the local variance is high.
+            # Eq. 4: the variance condition.
             if interior:
                 _gather_interior(plane, y, x, neighbours)
             if include_centre:
@@ -222,7 +228,32 @@ def labyrinth_pass(
             else:
                 spread = math.sqrt(variance)
             if _ratio(spread, mean) > variance_threshold:
-                counts[1] += 1
+                if variance_action == 0:  # leave g as it is
+                    counts[1] += 1
+                    continue
+                # push: draw on g's side of M, between M and the end of the
+                # tone scale, until g* lies further from M than g does.
+                pixel_key = _mix(key ^ np.uint64(y * width + x))
+                upward = g >= mean
+                low = mean if upward else tone_low[0]
+                span = (tone_high[n_ranges - 1] if upward else mean) - low
+                pushed = False
+                for attempt in range(max_tries):
+                    draw = np.float32(low + _uniform(pixel_key, attempt) * span)
+                    candidate = np.float64(draw)
+                    draw_mean = (neighbour_sum + candidate) / n if include_centre else mean
+                    beyond = candidate > draw_mean if upward else candidate < draw_mean
+                    if beyond and _ratio(abs(candidate - draw_mean), draw_mean) > mean_ratio:
+                        pushed = True
+                        break
+                if pushed:
+                    plane[y, x] = draw
+                    counts[2] += 1
+                else:
+                    counts[1] += 1
+                continue
+            if mean_ratio <= mean_threshold:
+                counts[0] += 1
                 continue
 
             # Eq. 3: draw tones in the range that holds g until Eq. 2 holds.
@@ -237,17 +268,14 @@ def labyrinth_pass(
             for attempt in range(max_tries):
                 draw = np.float32(low + _uniform(pixel_key, attempt) * width_i)
                 candidate = np.float64(draw)
-                if include_centre:
-                    draw_mean = (neighbour_sum + candidate) / n
-                else:
-                    draw_mean = mean
+                draw_mean = (neighbour_sum + candidate) / n if include_centre else mean
                 if _ratio(abs(candidate - draw_mean), draw_mean) <= mean_threshold:
                     accepted = True
                     break
             if accepted:
                 plane[y, x] = draw
-                counts[2] += 1
-            else:
                 counts[3] += 1
+            else:
+                counts[4] += 1
                 if on_exhausted == 1 and max_tries > 0:
                     plane[y, x] = draw

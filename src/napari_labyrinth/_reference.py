@@ -67,6 +67,8 @@ def reference_pass(
     pass_index=0,
     border="inside",
     variance_ratio="sqrt(V/N)/M",
+    variance_action="leave",
+    condition_order="mean_first",
     on_exhausted="keep",
     include_centre=False,
     scan="raster",
@@ -80,7 +82,15 @@ def reference_pass(
     g_plane = np.array(plane, dtype=np.float32)
     height, width = g_plane.shape
     counts = dict.fromkeys(
-        ("kept_by_mean", "left_by_variance", "redrawn", "out_of_tries", "skipped"), 0
+        (
+            "kept_by_mean",
+            "left_by_variance",
+            "pushed",
+            "redrawn",
+            "out_of_tries",
+            "skipped",
+        ),
+        0,
     )
     for y in range(height):
         columns = range(width)
@@ -119,7 +129,8 @@ def reference_pass(
                 n = len(values)
                 mean = neighbour_sum / n
 
-            if _ratio(abs(g - mean), mean) <= mean_threshold:  # Eq. 2
+            mean_ratio = _ratio(abs(g - mean), mean)
+            if mean_ratio <= mean_threshold and condition_order == "mean_first":  # Eq. 2
                 counts["kept_by_mean"] += 1
                 continue
 
@@ -132,7 +143,28 @@ def reference_pass(
             else:
                 spread = math.sqrt(variance)
             if _ratio(spread, mean) > variance_threshold:  # Eq. 4
-                counts["left_by_variance"] += 1
+                if variance_action == "leave":
+                    counts["left_by_variance"] += 1
+                    continue
+                # push g away from M: draws between M and the end of the scale on g's side
+                if g >= mean:
+                    low, high = mean, tones[-1][1]
+                else:
+                    low, high = tones[0][0], mean
+                for attempt in range(max_tries):
+                    r = uniform(seed, plane_index, pass_index, y * width + x, attempt)
+                    draw = float(np.float32(low + r * (high - low)))
+                    draw_mean = (neighbour_sum + draw) / n if include_centre else mean
+                    further_out = draw > draw_mean if g >= mean else draw < draw_mean
+                    if further_out and _ratio(abs(draw - draw_mean), draw_mean) > mean_ratio:
+                        g_plane[y, x] = draw
+                        counts["pushed"] += 1
+                        break
+                else:
+                    counts["left_by_variance"] += 1
+                continue
+            if mean_ratio <= mean_threshold:  # Eq. 2, after Eq. 4
+                counts["kept_by_mean"] += 1
                 continue
 
             i = 0

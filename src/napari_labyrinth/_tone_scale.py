@@ -51,9 +51,7 @@ class ToneScale:
         return values.astype(dtype)
 
 
-def resolve_tone_scale(
-    values: np.ndarray, tone_limits: tuple[float, float] | None
-) -> ToneScale:
+def resolve_tone_scale(values: np.ndarray, tone_limits: tuple[float, float] | None) -> ToneScale:
     """The tone scale of an image from the ``tone_limits`` argument.
 
     ``None`` gives (0, 255) for uint8 data and the ``DEFAULT_PERCENTILES`` of

@@ -10,6 +10,7 @@ kernel (imported on first use) on each plane.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import numbers
 from collections.abc import Callable, Generator, Sequence
 from typing import Any
@@ -23,6 +24,7 @@ from .parameters import (
     ON_EXHAUSTED,
     PARAMETER_NAMES,
     SCANS,
+    VARIANCE_ACTIONS,
     VARIANCE_RATIOS,
     LabyrinthParameters,
     make_parameters,
@@ -63,6 +65,8 @@ def labyrinth(
     max_tries: int | None = None,
     border: str | None = None,
     variance_ratio: str | None = None,
+    variance_action: str | None = None,
+    condition_order: str | None = None,
     on_exhausted: str | None = None,
     include_centre: bool | None = None,
     scan: str | None = None,
@@ -120,6 +124,11 @@ def labyrinth(
         number; paper preset), or completed as the ``scipy.ndimage`` modes.
     variance_ratio : {"sqrt(V/N)/M", "sqrt(V)/M"}, optional
         R2 of Eq. 4: as printed, or with the local standard deviation.
+    variance_action : {"leave", "push"}, optional
+        Where Eq. 4 holds: leave g (as printed) or push it further from M
+        with a draw on its side of M (enhances the local variance).
+    condition_order : {"mean_first", "variance_first"}, optional
+        Whether Eq. 2 (as printed) or Eq. 4 decides first.
     on_exhausted : {"keep", "last_draw"}, optional
         What a pixel becomes when no draw satisfies Eq. 2.
     include_centre : bool, optional
@@ -148,7 +157,8 @@ def labyrinth(
         Only with ``return_diagnostics``: shape ``(passes,) + plane_shape``
         where ``plane_shape`` is ``image.shape`` without the two spatial
         axes, fields ``kept_by_mean`` (Eq. 2 held), ``left_by_variance``
-        (Eq. 4 held), ``redrawn``, ``out_of_tries`` and ``skipped``
+        (Eq. 4 held, g left), ``pushed`` (Eq. 4 held, g pushed from M),
+        ``redrawn`` (Eq. 3), ``out_of_tries`` and ``skipped``
         (non-finite or without finite neighbours), which add up to the
         number of pixels of a plane.
 
@@ -187,6 +197,8 @@ def labyrinth(
         max_tries=max_tries,
         border=border,
         variance_ratio=variance_ratio,
+        variance_action=variance_action,
+        condition_order=condition_order,
         on_exhausted=on_exhausted,
         include_centre=include_centre,
         scan=scan,
@@ -229,7 +241,9 @@ def labyrinth_stack(image, passes: int = 4, **options):
     seed = _validate_seed(options.pop("seed", 0))
     channel_axis = options.pop("channel_axis", None)
     tone_limits = options.pop("tone_limits", None)
-    parameters = resolve_parameters(options.pop("preset", DEFAULT_PRESET), passes=passes, **options)
+    parameters = resolve_parameters(
+        options.pop("preset", DEFAULT_PRESET), passes=passes, **options
+    )
     prepared = _prepare(image, channel_axis, tone_limits)
     steps = _render_steps(prepared, parameters, seed, record_passes=True)
     stack, diagnostics = _drive(steps, progress, total=prepared.n_planes * parameters.passes)
@@ -274,8 +288,7 @@ def labyrinth_sweep(
     """
     if parameter not in PARAMETER_NAMES + ("seed",):
         raise ValueError(
-            f"parameter must be one of {', '.join(PARAMETER_NAMES + ('seed',))}; "
-            f"got {parameter!r}"
+            f"parameter must be one of {', '.join(PARAMETER_NAMES + ('seed',))}; got {parameter!r}"
         )
     if parameter in options:
         raise TypeError(f"{parameter} is swept; do not also pass it as a keyword")
@@ -453,8 +466,6 @@ def _render_steps(
     ``record_passes`` the stack of the input and every pass, and the
     diagnostics.
     """
-    from ._kernel import labyrinth_pass  # numba is imported on first use only
-
     image = prepared.image
     passes = parameters.passes
     if record_passes:
@@ -471,17 +482,6 @@ def _render_steps(
     plane_size = source_planes.shape[-2] * source_planes.shape[-1]
     counts = np.zeros((passes,) + leading_shape + (len(DIAGNOSTIC_FIELDS),), dtype=np.int64)
 
-    limits = np.asarray(parameters.tone_ranges, dtype=np.float64)
-    tone_low = np.array([low for low, _ in parameters.tones], dtype=np.float64)
-    tone_high = np.array([high for _, high in parameters.tones], dtype=np.float64)
-    range_bounds = np.ascontiguousarray(limits[1:-1])
-    options = (
-        BORDERS.index(parameters.border),
-        VARIANCE_RATIOS.index(parameters.variance_ratio),
-        ON_EXHAUSTED.index(parameters.on_exhausted),
-        parameters.include_centre,
-        SCANS.index(parameters.scan),
-    )
     done = 0
     for plane_index, index in enumerate(np.ndindex(leading_shape)):
         if prepared.is_alpha(index):
@@ -492,20 +492,14 @@ def _render_steps(
         has_nonfinite = image.dtype.kind == "f" and not np.isfinite(initial).all()
         work = initial.copy()
         for pass_index in range(passes):
-            labyrinth_pass(
+            run_pass(
                 work,
-                parameters.mean_threshold,
-                parameters.variance_threshold,
-                range_bounds,
-                tone_low,
-                tone_high,
-                parameters.max_tries,
-                np.uint64(seed),
-                plane_index,
-                pass_index,
-                *options,
-                has_nonfinite,
-                counts[(pass_index,) + index],
+                parameters,
+                seed=seed,
+                plane_index=plane_index,
+                pass_index=pass_index,
+                counts=counts[(pass_index,) + index],
+                has_nonfinite=has_nonfinite,
             )
             if record_passes:
                 _write_changes(targets[pass_index][index], initial, work, prepared.scale)
@@ -513,10 +507,62 @@ def _render_steps(
             yield done
         if not record_passes and passes:
             _write_changes(targets[0][index], initial, work, prepared.scale)
-    diagnostics = prepared.to_image_layout(
-        counts.view(DIAGNOSTICS_DTYPE)[..., 0]
-    )
+    diagnostics = prepared.to_image_layout(counts.view(DIAGNOSTICS_DTYPE)[..., 0])
     return result, np.ascontiguousarray(diagnostics)
+
+
+def run_pass(
+    tones: np.ndarray,
+    parameters: LabyrinthParameters,
+    *,
+    seed: int = 0,
+    plane_index: int = 0,
+    pass_index: int = 0,
+    counts: np.ndarray | None = None,
+    has_nonfinite: bool | None = None,
+) -> np.ndarray:
+    """Run one pass of the numba kernel on a float32 plane of 0-255 tones, in place.
+
+    The low-level entry point under :func:`labyrinth` (no tone mapping, no
+    copies, no validation of ``tones``): ``tones`` must be a C-contiguous
+    2-D float32 array. ``counts``, if given, is an int64 array of
+    ``len(DIAGNOSTIC_FIELDS)`` that the pass increments. Returns ``counts``.
+    """
+    from ._kernel import labyrinth_pass  # numba is imported on first use only
+
+    if counts is None:
+        counts = np.zeros(len(DIAGNOSTIC_FIELDS), dtype=np.int64)
+    if has_nonfinite is None:
+        has_nonfinite = not np.isfinite(tones).all()
+    labyrinth_pass(
+        tones,
+        parameters.mean_threshold,
+        parameters.variance_threshold,
+        *_kernel_tables(parameters),
+        parameters.max_tries,
+        np.uint64(seed),
+        plane_index,
+        pass_index,
+        BORDERS.index(parameters.border),
+        VARIANCE_RATIOS.index(parameters.variance_ratio),
+        VARIANCE_ACTIONS.index(parameters.variance_action),
+        parameters.condition_order == "variance_first",
+        ON_EXHAUSTED.index(parameters.on_exhausted),
+        parameters.include_centre,
+        SCANS.index(parameters.scan),
+        has_nonfinite,
+        counts,
+    )
+    return counts
+
+
+@functools.lru_cache(maxsize=64)
+def _kernel_tables(parameters: LabyrinthParameters):
+    """Inner range limits, T_inf and T_sup as the float64 arrays the kernel takes."""
+    range_bounds = np.array(parameters.tone_ranges[1:-1], dtype=np.float64)
+    tone_low = np.array([low for low, _ in parameters.tones], dtype=np.float64)
+    tone_high = np.array([high for _, high in parameters.tones], dtype=np.float64)
+    return range_bounds, tone_low, tone_high
 
 
 def _write_changes(

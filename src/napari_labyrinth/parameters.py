@@ -23,13 +23,16 @@ MAX_TRIES_LIMIT = 10_000
 
 BORDERS = ("inside", "mirror", "nearest", "wrap")
 VARIANCE_RATIOS = ("sqrt(V/N)/M", "sqrt(V)/M")
+VARIANCE_ACTIONS = ("leave", "push")
+CONDITION_ORDERS = ("mean_first", "variance_first")
 ON_EXHAUSTED = ("keep", "last_draw")
 SCANS = ("raster", "serpentine")
 
 #: What a pass did with each pixel; the kernel counts them in this order.
 DIAGNOSTIC_FIELDS = (
     "kept_by_mean",  # Eq. 2 held: g kept
-    "left_by_variance",  # Eq. 2 failed, Eq. 4 held: g left as it is
+    "left_by_variance",  # Eq. 4 held: g left as it is (no push succeeded)
+    "pushed",  # Eq. 4 held: a draw further from M replaced g (variance_action="push")
     "redrawn",  # a draw of Eq. 3 satisfied Eq. 2 and replaced g
     "out_of_tries",  # max_tries draws, none satisfied Eq. 2
     "skipped",  # g not finite, or no finite neighbour
@@ -61,6 +64,16 @@ class LabyrinthParameters:
         as ``scipy.ndimage`` modes of the same names do.
     variance_ratio : {"sqrt(V/N)/M", "sqrt(V)/M"}
         The ratio R2 of Eq. 4: as printed, or with the standard deviation.
+    variance_action : {"leave", "push"}
+        What Eq. 4 does to a pixel where it holds. ``"leave"``: as printed,
+        the substitution is not applied. ``"push"``: tones are drawn on g's
+        side of M, between M and the end of the tone scale, until one lies
+        further from M than g (relative to M); it replaces g. A reading of
+        "a condition ... able to strongly enhance the local variance".
+    condition_order : {"mean_first", "variance_first"}
+        Which condition decides first: Eq. 2 (as printed: Eq. 4 only for
+        pixels that fail Eq. 2) or Eq. 4 (it acts on every pixel where it
+        holds, even those close to their mean).
     on_exhausted : {"keep", "last_draw"}
         What a pixel becomes when no draw satisfied Eq. 2.
     include_centre : bool
@@ -79,6 +92,8 @@ class LabyrinthParameters:
     passes: int
     border: str
     variance_ratio: str
+    variance_action: str
+    condition_order: str
     on_exhausted: str
     include_centre: bool
     scan: str
@@ -116,15 +131,15 @@ def make_parameters(**values: Any) -> LabyrinthParameters:
     tone_ranges = _tone_ranges(values["tone_ranges"])
     return LabyrinthParameters(
         mean_threshold=_non_negative_float("mean_threshold", values["mean_threshold"]),
-        variance_threshold=_non_negative_float(
-            "variance_threshold", values["variance_threshold"]
-        ),
+        variance_threshold=_non_negative_float("variance_threshold", values["variance_threshold"]),
         tone_ranges=tone_ranges,
         tones=_tones(values.get("tones"), tone_ranges),
         max_tries=_integer("max_tries", values["max_tries"], 0, MAX_TRIES_LIMIT),
         passes=_integer("passes", values["passes"], 0, None),
         border=_choice("border", values["border"], BORDERS),
         variance_ratio=_choice("variance_ratio", values["variance_ratio"], VARIANCE_RATIOS),
+        variance_action=_choice("variance_action", values["variance_action"], VARIANCE_ACTIONS),
+        condition_order=_choice("condition_order", values["condition_order"], CONDITION_ORDERS),
         on_exhausted=_choice("on_exhausted", values["on_exhausted"], ON_EXHAUSTED),
         include_centre=_boolean("include_centre", values["include_centre"]),
         scan=_choice("scan", values["scan"], SCANS),

@@ -26,6 +26,8 @@ PRESETS = MappingProxyType(
                 "passes": 1,
                 "border": "inside",
                 "variance_ratio": "sqrt(V/N)/M",
+                "variance_action": "leave",
+                "condition_order": "mean_first",
                 "on_exhausted": "keep",
                 "include_centre": False,
                 "scan": "raster",
