@@ -1,0 +1,212 @@
+"""Image file reading and atomic writing for the command line."""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+import pytest
+
+from napari_labyrinth import _io
+from napari_labyrinth._io import ImageFileError, read_image, write_image
+
+RNG = np.random.default_rng(0)
+
+
+def leftovers(directory) -> list[str]:
+    """Temporary files left in a directory."""
+    return [name for name in os.listdir(directory) if name.endswith(".tmp")]
+
+
+@pytest.mark.parametrize(
+    "array",
+    [
+        RNG.integers(0, 256, (12, 17), dtype=np.uint8),
+        RNG.integers(0, 65536, (12, 17), dtype=np.uint16),
+        RNG.integers(-100, 100, (12, 17), dtype=np.int16),
+        RNG.random((12, 17), dtype=np.float32),
+        RNG.random((12, 17)).astype(np.float16),
+        RNG.random((3, 12, 17)),
+        RNG.integers(0, 256, (12, 17, 3), dtype=np.uint8),
+        RNG.integers(0, 256, (5, 12, 17, 4), dtype=np.uint8),
+        RNG.random((2, 3, 12, 17), dtype=np.float32),
+        RNG.random((12, 17)) > 0.5,
+    ],
+    ids=lambda a: f"{a.dtype}-{'x'.join(map(str, a.shape))}",
+)
+@pytest.mark.parametrize("suffix", [".tif", ".tiff"])
+def test_tiff_round_trip_any_dtype_and_dimensions(tmp_path, array, suffix):
+    path = tmp_path / f"image{suffix}"
+    assert write_image(path, array) == path
+    back = read_image(path)
+    assert back.dtype == array.dtype and back.shape == array.shape
+    np.testing.assert_array_equal(back, array)
+    assert leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize(
+    "array",
+    [
+        RNG.integers(0, 256, (12, 17), dtype=np.uint8),
+        RNG.integers(0, 256, (12, 17, 2), dtype=np.uint8),
+        RNG.integers(0, 256, (12, 17, 3), dtype=np.uint8),
+        RNG.integers(0, 256, (12, 17, 4), dtype=np.uint8),
+        RNG.integers(0, 65536, (12, 17), dtype=np.uint16),
+    ],
+    ids=lambda a: f"{a.dtype}-{'x'.join(map(str, a.shape))}",
+)
+def test_png_round_trip(tmp_path, array):
+    path = tmp_path / "image.png"
+    write_image(path, array)
+    back = read_image(path)
+    assert back.dtype == array.dtype
+    np.testing.assert_array_equal(back, array)
+
+
+@pytest.mark.parametrize("shape", [(12, 17), (12, 17, 3)])
+@pytest.mark.parametrize("suffix", [".jpg", ".jpeg", ".JPG", ".bmp"])
+def test_jpeg_and_bmp_round_trip(tmp_path, shape, suffix):
+    array = np.full(shape, 100, dtype=np.uint8)
+    array[3:9, 4:12] = 180
+    path = tmp_path / f"image{suffix}"
+    write_image(path, array)
+    back = read_image(path)
+    assert back.shape == array.shape and back.dtype == np.uint8
+    tolerance = 0 if suffix == ".bmp" else 12  # JPEG is lossy
+    assert np.abs(back.astype(int) - array).max() <= tolerance
+
+
+@pytest.mark.parametrize(
+    ("suffix", "array"),
+    [
+        (".png", np.zeros((8, 8), np.float32)),
+        (".png", np.zeros((3, 8, 8), np.uint8)),
+        (".png", np.zeros((2, 8, 8, 3), np.uint8)),
+        (".png", np.zeros((8, 8, 3), np.uint16)),
+        (".jpg", np.zeros((8, 8), np.uint16)),
+        (".jpg", np.zeros((8, 8, 4), np.uint8)),
+        (".jpg", np.zeros((8, 8), np.float64)),
+        (".bmp", np.zeros((8, 8), np.int8)),
+    ],
+)
+def test_unstorable_arrays_suggest_tiff(tmp_path, suffix, array):
+    path = tmp_path / f"out{suffix}"
+    with pytest.raises(ValueError, match=r"\.tif") as info:
+        write_image(path, array)
+    assert str(path) in str(info.value)
+    assert not path.exists()
+    assert leftovers(tmp_path) == []
+
+
+def test_unknown_suffix(tmp_path):
+    with pytest.raises(ValueError, match=r"out\.xyz.*unknown image format"):
+        write_image(tmp_path / "out.xyz", np.zeros((4, 4), np.uint8))
+    (tmp_path / "in.xyz").write_bytes(b"data")
+    with pytest.raises(ValueError, match=r"in\.xyz"):
+        read_image(tmp_path / "in.xyz")
+
+
+@pytest.mark.parametrize("suffix", [".png", ".tif", ".jpg", ".bmp"])
+def test_corrupt_file_is_a_value_error_naming_it(tmp_path, suffix):
+    path = tmp_path / f"broken{suffix}"
+    path.write_bytes(b"this is not an image at all" * 10)
+    with pytest.raises(ImageFileError) as info:
+        read_image(path)
+    assert isinstance(info.value, ValueError)
+    assert str(path) in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_truncated_png(tmp_path):
+    path = tmp_path / "cut.png"
+    write_image(path, RNG.integers(0, 256, (64, 64), dtype=np.uint8))
+    path.write_bytes(path.read_bytes()[:100])
+    with pytest.raises(ValueError, match="cut.png"):
+        read_image(path)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nothing.png"):
+        read_image(tmp_path / "nothing.png")
+
+
+def test_directory_is_not_an_image(tmp_path):
+    (tmp_path / "dir.png").mkdir()
+    with pytest.raises(ValueError, match="directory"):
+        read_image(tmp_path / "dir.png")
+    with pytest.raises(ValueError, match="directory"):
+        write_image(tmp_path / "dir.png", np.zeros((4, 4), np.uint8), overwrite=True)
+
+
+def test_refuses_to_overwrite_without_flag(tmp_path):
+    path = tmp_path / "out.png"
+    path.write_bytes(b"precious")
+    with pytest.raises(FileExistsError, match="out.png"):
+        write_image(path, np.zeros((4, 4), np.uint8))
+    assert path.read_bytes() == b"precious"
+    assert leftovers(tmp_path) == []
+    write_image(path, np.ones((4, 4), np.uint8), overwrite=True)
+    np.testing.assert_array_equal(read_image(path), np.ones((4, 4), np.uint8))
+    assert leftovers(tmp_path) == []
+
+
+def test_file_appearing_during_the_write_is_not_clobbered(tmp_path, monkeypatch):
+    path = tmp_path / "out.tif"
+    real_write = _io._write
+
+    def write_then_race(handle, *args):
+        real_write(handle, *args)
+        path.write_bytes(b"someone else")
+
+    monkeypatch.setattr(_io, "_write", write_then_race)
+    with pytest.raises(FileExistsError):
+        write_image(path, np.zeros((4, 4), np.uint8))
+    assert path.read_bytes() == b"someone else"
+    assert leftovers(tmp_path) == []
+
+
+def test_failed_write_leaves_nothing_behind(tmp_path, monkeypatch):
+    import tifffile
+
+    def broken(file, *args, **kwargs):
+        file.write(b"half a file")
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(tifffile, "imwrite", broken)
+    path = tmp_path / "out.tif"
+    with pytest.raises(OSError, match="No space"):
+        write_image(path, np.zeros((4, 4), np.uint8))
+    assert os.listdir(tmp_path) == []
+
+
+def test_failed_overwrite_keeps_the_old_file(tmp_path, monkeypatch):
+    path = tmp_path / "out.png"
+    write_image(path, np.full((4, 4), 7, np.uint8))
+    before = path.read_bytes()
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(_io, "_write", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        write_image(path, np.zeros((4, 4), np.uint8), overwrite=True)
+    assert path.read_bytes() == before
+    assert leftovers(tmp_path) == []
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX permissions")
+def test_written_file_has_ordinary_permissions(tmp_path):
+    umask = os.umask(0o022)
+    os.umask(umask)
+    path = tmp_path / "out.tif"
+    write_image(path, np.zeros((4, 4), np.uint8))
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+def test_input_array_is_not_modified(tmp_path):
+    array = RNG.integers(0, 256, (6, 6, 3), dtype=np.uint8)
+    copy = array.copy()
+    write_image(tmp_path / "a.png", array)
+    write_image(tmp_path / "a.tif", array)
+    np.testing.assert_array_equal(array, copy)
