@@ -35,47 +35,14 @@ def best_of(fn, repeats):
 
 
 def kernel_runner(image):
-    from napari_labyrinth._kernel import labyrinth_pass
-    from napari_labyrinth.api import _prepare, resolve_parameters
-    from napari_labyrinth.parameters import (
-        BORDERS,
-        CONDITION_ORDERS,
-        ON_EXHAUSTED,
-        SCANS,
-        VARIANCE_ACTIONS,
-        VARIANCE_RATIOS,
-    )
+    """A pass of the bare kernel on the image's tones, and the time of the copy it makes."""
+    from napari_labyrinth.api import _prepare, resolve_parameters, run_pass
 
-    p = resolve_parameters("paper")
+    parameters = resolve_parameters("paper")
     tones = _prepare(image, None, None).scale.to_tones(image)
-    limits = np.asarray(p.tone_ranges)
-    low = np.array([t[0] for t in p.tones])
-    high = np.array([t[1] for t in p.tones])
-    counts = np.zeros(6, np.int64)
 
     def run():
-        work = tones.copy()
-        labyrinth_pass(
-            work,
-            p.mean_threshold,
-            p.variance_threshold,
-            limits[1:-1].copy(),
-            low,
-            high,
-            p.max_tries,
-            np.uint64(0),
-            0,
-            0,
-            BORDERS.index(p.border),
-            VARIANCE_RATIOS.index(p.variance_ratio),
-            VARIANCE_ACTIONS.index(p.variance_action),
-            CONDITION_ORDERS.index(p.condition_order) == 1,
-            ON_EXHAUSTED.index(p.on_exhausted),
-            p.include_centre,
-            SCANS.index(p.scan),
-            False,
-            counts,
-        )
+        run_pass(tones.copy(), parameters, has_nonfinite=False)
 
     copy_time = best_of(lambda: tones.copy(), 5)
     return run, copy_time
@@ -90,7 +57,7 @@ def subprocess_seconds(code, env):
 
 def main():
     from napari_labyrinth import labyrinth
-    from napari_labyrinth._reference import reference_pass
+    from napari_labyrinth._reference import reference_render
     from napari_labyrinth.api import resolve_parameters
 
     print("labyrinth kernel benchmark, preset 'paper', 1 pass, single thread")
@@ -110,18 +77,9 @@ def main():
                 f"{changed:>10.2%}"
             )
 
-    p = resolve_parameters("paper")
     small = camera(512, np.uint8)[:64, :64].astype(np.float32)
     start = time.perf_counter()
-    reference_pass(
-        small,
-        mean_threshold=p.mean_threshold,
-        variance_threshold=p.variance_threshold,
-        range_limits=p.tone_ranges,
-        tones=p.tones,
-        max_tries=p.max_tries,
-        seed=0,
-    )
+    reference_render(small, resolve_parameters("paper"))
     oracle = time.perf_counter() - start
     print(f"pure-Python oracle, camera 64^2: {small.size / oracle / 1e6:.3f} Mpx/s")
 

@@ -188,3 +188,33 @@ def reference_pass(
                 if on_exhausted == "last_draw" and draw is not None:
                     g_plane[y, x] = draw
     return g_plane, counts
+
+
+def reference_render(plane, parameters, *, seed=0, plane_index=0):
+    """All ``parameters.passes`` passes over a float32 plane of tones.
+
+    ``parameters`` is a :class:`~napari_labyrinth.parameters.LabyrinthParameters`.
+    Returns the final plane and the list of per-pass counts.
+    """
+    work, all_counts = np.array(plane, dtype=np.float32), []
+    for pass_index in range(parameters.passes):
+        work, counts = reference_pass(
+            work,
+            mean_threshold=parameters.mean_threshold,
+            variance_threshold=parameters.variance_threshold,
+            range_limits=parameters.tone_ranges,
+            tones=parameters.tones,
+            max_tries=parameters.max_tries,
+            seed=seed,
+            plane_index=plane_index,
+            pass_index=pass_index,
+            border=parameters.border,
+            variance_ratio=parameters.variance_ratio,
+            variance_action=parameters.variance_action,
+            condition_order=parameters.condition_order,
+            on_exhausted=parameters.on_exhausted,
+            include_centre=parameters.include_centre,
+            scan=parameters.scan,
+        )
+        all_counts.append(counts)
+    return work, all_counts
