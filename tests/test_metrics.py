@@ -1,0 +1,139 @@
+"""Each metric separates a synthetic labyrinth from noise, blur and the unchanged image."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from napari_labyrinth import metrics
+from napari_labyrinth.samples import cholesteric_fingerprint
+
+SIZE = 160
+
+
+def walls(pattern):
+    """Binary walls (30 / 230 tones) from a pattern in [0, 1]."""
+    return np.where(pattern > np.median(pattern), 230.0, 30.0)
+
+
+@pytest.fixture(scope="module")
+def cases():
+    """A smooth input and five renderings of it (rendered, on the 0-255 scale)."""
+    y, x = np.mgrid[:SIZE, :SIZE]
+    radius = np.hypot(y - SIZE / 2, x - SIZE / 2)
+    # input: a bright disk with soft circular contours on a darker ramp
+    original = 60 + 0.3 * x + 120 / (1 + np.exp((radius - 45) / 3.0))
+    near_contour = np.abs(radius - 45) < 14
+    # labyrinth: 2-pixel walls running along the circular contour
+    rings = walls(np.cos(2 * np.pi * radius / 4.0))
+    labyrinth = np.where(near_contour, rings, original)
+    rng = np.random.default_rng(0)
+    salt_pepper = original.copy()
+    hit = rng.random(original.shape) < 0.02
+    salt_pepper[hit] = rng.choice([0.0, 255.0], hit.sum())
+    return {
+        "original": original,
+        "labyrinth": labyrinth,
+        "noise": np.clip(original + rng.normal(0, 10, original.shape), 0, 255),
+        "salt_pepper": salt_pepper,
+        "blur": ndimage.gaussian_filter(original, 3),
+        "unchanged": original.copy(),
+    }
+
+
+OTHERS = ("noise", "salt_pepper", "blur", "unchanged")
+
+
+def test_texture_added(cases):
+    original = cases["original"]
+    value = {name: metrics.texture_added(original, cases[name]) for name in cases}
+    assert value["unchanged"] == 1.0
+    assert value["blur"] < 1.0
+    assert value["labyrinth"] > 3 * max(value[name] for name in OTHERS)
+
+
+def test_labyrinth_cover(cases):
+    value = {name: metrics.labyrinth_cover(cases[name]) for name in cases}
+    assert value["labyrinth"] > 0.2
+    for name in OTHERS:
+        assert value[name] < 0.01, name
+
+
+def test_labyrinth_cover_of_a_fingerprint_texture_is_high():
+    fingerprint = walls(cholesteric_fingerprint((SIZE, SIZE), pitch=8, seed=3, noise=0.0))
+    assert metrics.labyrinth_cover(fingerprint) > 0.5
+
+
+def test_wall_width(cases):
+    assert metrics.wall_width(cases["labyrinth"]) == pytest.approx(2.0, abs=0.8)
+    y, x = np.mgrid[:SIZE, :SIZE]
+    assert metrics.wall_width(walls(np.cos(np.pi * x))) == pytest.approx(1.0, abs=0.3)
+    diagonal = walls(np.cos(np.pi * (x * np.cos(0.4) + y * np.sin(0.4)) / 2))
+    assert metrics.wall_width(diagonal) == pytest.approx(2.0, abs=0.3)
+    assert metrics.wall_width(walls(np.cos(np.pi * x / 3))) == pytest.approx(3.0, abs=0.5)
+    for name in OTHERS:
+        assert math.isnan(metrics.wall_width(cases[name])), name
+
+
+def test_orientation_coherence(cases):
+    assert metrics.orientation_coherence(cases["labyrinth"]) > 0.6
+    for name in OTHERS:
+        assert math.isnan(metrics.orientation_coherence(cases[name])), name
+    # straight walls are fully coherent, whatever their direction
+    y, x = np.mgrid[:SIZE, :SIZE]
+    for pattern in (np.cos(np.pi * x / 2), np.cos(np.pi * (x + y) / 2), np.cos(np.pi * y)):
+        assert metrics.orientation_coherence(walls(pattern)) > 0.9
+
+
+def test_contour_alignment(cases):
+    original = cases["original"]
+    assert metrics.contour_alignment(original, cases["labyrinth"]) > 0.8
+    y, x = np.mgrid[:SIZE, :SIZE]
+    angle = np.arctan2(y - SIZE / 2, x - SIZE / 2)
+    spokes = walls(np.cos(2 * np.pi * (angle * 45) / 4.0))  # walls across the circle
+    near = np.abs(np.hypot(y - SIZE / 2, x - SIZE / 2) - 45) < 14
+    across = np.where(near, spokes, original)
+    assert metrics.contour_alignment(original, across) < 0.3
+    for name in OTHERS:
+        assert math.isnan(metrics.contour_alignment(original, cases[name])), name
+
+
+def test_edge_enhancement(cases):
+    original = cases["original"]
+    value = {name: metrics.edge_enhancement(original, cases[name]) for name in cases}
+    assert value["labyrinth"] > 0.5
+    assert abs(value["noise"]) < 0.2 and abs(value["salt_pepper"]) < 0.2
+    assert value["blur"] < 0
+    assert value["unchanged"] == 0.0
+
+
+def test_metrics_are_deterministic_and_leave_inputs_alone(cases):
+    original, rendered = cases["original"], cases["labyrinth"]
+    before = (original.copy(), rendered.copy())
+    first = metrics.describe(original, rendered)
+    second = metrics.describe(original, rendered)
+    assert first == second
+    np.testing.assert_array_equal(original, before[0])
+    np.testing.assert_array_equal(rendered, before[1])
+    assert set(first) == {
+        "texture_added",
+        "labyrinth_cover",
+        "wall_width",
+        "orientation_coherence",
+        "contour_alignment",
+        "edge_enhancement",
+    }
+
+
+def test_metrics_accept_integer_images_and_reject_bad_ones():
+    image = (np.random.default_rng(1).random((32, 32)) * 255).astype(np.uint8)
+    assert metrics.texture_added(image, image) == 1.0
+    with pytest.raises(ValueError, match="2-D"):
+        metrics.labyrinth_cover(np.zeros((3, 8, 8)))
+    with pytest.raises(ValueError, match="at least 3 x 3"):
+        metrics.labyrinth_cover(np.zeros((2, 8)))
+    with pytest.raises(TypeError, match="real numbers"):
+        metrics.labyrinth_cover(np.zeros((8, 8), complex))
+    with pytest.raises(ValueError, match="differ in shape"):
+        metrics.edge_enhancement(np.zeros((8, 8)), np.zeros((9, 8)))
