@@ -12,6 +12,9 @@ it holds the 1-3 pixel structure that the tiling draws.
 
 from __future__ import annotations
 
+import functools
+import hashlib
+
 import numpy as np
 
 #: Window (Gaussian sigma, pixels) over which local statistics are averaged.
@@ -35,6 +38,30 @@ MIN_COVER = 0.01
 # Lag vectors (dy, dx) of the four lattice directions and of their normals.
 _DIRECTIONS = ((0, 1), (1, 0), (1, 1), (1, -1))
 _NORMALS = ((1, 0), (0, 1), (1, -1), (1, 1))
+
+
+def _memoise_on_plane(function):
+    """Cache the last few results of ``function(plane)`` by the plane's content.
+
+    :func:`describe` asks several metrics for the same wall map and
+    orientation field; the cache makes it compute each once.
+    """
+    cache: dict = {}
+
+    @functools.wraps(function)
+    def wrapper(image):
+        plane = _plane(image)
+        key = (plane.shape, hashlib.blake2b(plane.tobytes(), digest_size=16).digest())
+        if key not in cache:
+            if len(cache) >= 4:
+                cache.pop(next(iter(cache)))
+            result = function(plane)
+            for array in result if isinstance(result, tuple) else (result,):
+                array.flags.writeable = False  # shared by every caller
+            cache[key] = result
+        return cache[key]
+
+    return wrapper
 
 
 def _plane(image, name="image") -> np.ndarray:
@@ -78,6 +105,7 @@ def _local_correlation(h: np.ndarray, energy: np.ndarray, dy: int, dx: int) -> n
     return ndimage.gaussian_filter(product, WINDOW_SIGMA) / np.maximum(energy, 1e-12)
 
 
+@_memoise_on_plane
 def wall_map(image) -> np.ndarray:
     """Boolean map of pixels covered by oriented, wall-like fine texture.
 
@@ -162,6 +190,11 @@ def orientation(image, sigma: float = WINDOW_SIGMA):
     return angle, coherence, trace
 
 
+@_memoise_on_plane
+def _wall_orientation(plane):
+    return orientation(fine_scale(plane))
+
+
 def orientation_coherence(image) -> float:
     """How parallel the walls are: mean structure-tensor coherence on the wall map.
 
@@ -174,7 +207,7 @@ def orientation_coherence(image) -> float:
     walls = wall_map(plane)
     if walls.mean() < MIN_COVER:
         return float("nan")
-    _, coherence, strength = orientation(fine_scale(plane))
+    _, coherence, strength = _wall_orientation(plane)
     weight = strength * walls
     return float((coherence * weight).sum() / weight.sum())
 
@@ -195,7 +228,7 @@ def contour_alignment(original, rendered, *, contour_sigma: float = 4.0) -> floa
     walls = wall_map(after)
     if walls.mean() < MIN_COVER:
         return float("nan")
-    wall_angle, wall_coherence, wall_strength = orientation(fine_scale(after))
+    wall_angle, wall_coherence, wall_strength = _wall_orientation(after)
     contour_angle, contour_coherence, contour_strength = orientation(before, contour_sigma)
     weight = walls * wall_coherence * wall_strength * contour_coherence * contour_strength
     total = weight.sum()
