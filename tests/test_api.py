@@ -339,3 +339,81 @@ def test_bad_sweeps_raise_clear_errors(camera):
 
 def test_version_is_exposed():
     assert napari_labyrinth.__version__ != "0+unknown"
+
+
+def test_plane_offset_renders_a_plane_as_within_its_stack(camera):
+    stack = np.stack([camera, camera[::-1], camera.T, camera // 2, camera, camera[:, ::-1]])
+    whole = labyrinth(stack, passes=2, seed=3)
+    for k in range(len(stack)):
+        np.testing.assert_array_equal(
+            labyrinth(stack[k], passes=2, seed=3, plane_offset=k), whole[k]
+        )
+    grid = stack.reshape(2, 3, *camera.shape)
+    np.testing.assert_array_equal(
+        labyrinth(grid[1, 1:], passes=2, seed=3, plane_offset=4), whole[4:]
+    )
+    with pytest.raises(ValueError, match="plane_offset"):
+        labyrinth(camera, plane_offset=-1)
+    with pytest.raises(TypeError, match="plane_offset"):
+        labyrinth(camera, plane_offset=1.5)
+
+
+class TestDask:
+    da = pytest.importorskip("dask.array")
+
+    def test_lazy_result_equals_the_numpy_result(self, camera):
+        stack = np.stack([camera, camera[::-1], camera.T])
+        lazy_input = self.da.from_array(stack, chunks=(2, 64, 64))  # splits planes
+        lazy = labyrinth(lazy_input, passes=2, seed=8)
+        assert isinstance(lazy, self.da.Array)
+        assert all(len(c) == 1 for c in lazy.chunks[-2:])  # rechunked to whole planes
+        np.testing.assert_array_equal(lazy.compute(), labyrinth(stack, passes=2, seed=8))
+
+    def test_nothing_is_computed_until_asked(self, camera):
+        calls = []
+
+        def load(block):
+            calls.append(block.shape)
+            return block
+
+        lazy_input = self.da.from_array(np.stack([camera] * 4), chunks=(1, -1, -1))
+        lazy = labyrinth(lazy_input.map_blocks(load, dtype=np.uint8))
+        assert calls == [] or all(0 in shape or shape == (1, 1, 1) for shape in calls)
+        calls.clear()
+        np.testing.assert_array_equal(lazy[2].compute(), labyrinth(np.stack([camera] * 4))[2])
+        assert len(calls) == 1  # only the plane that was asked for
+
+    def test_rgba_stack_and_sweep(self):
+        from skimage import data
+
+        rgb = data.astronaut()[::8, ::8].copy()
+        rgba = np.dstack([rgb, np.full(rgb.shape[:2], 9, np.uint8)])
+        lazy_rgba = self.da.from_array(rgba, chunks=(32, 32, 2))
+        np.testing.assert_array_equal(
+            labyrinth(lazy_rgba, channel_axis=-1).compute(), labyrinth(rgba, channel_axis=-1)
+        )
+        np.testing.assert_array_equal(
+            labyrinth_stack(lazy_rgba, passes=2, channel_axis=-1).compute(),
+            labyrinth_stack(rgba, passes=2, channel_axis=-1),
+        )
+        sweep = labyrinth_sweep(self.da.from_array(rgb[..., 0]), "seed", [1, 2])
+        assert isinstance(sweep, self.da.Array)
+        np.testing.assert_array_equal(sweep.compute(), labyrinth_sweep(rgb[..., 0], "seed", [1, 2]))
+
+    def test_other_dtypes_need_tone_limits(self, camera):
+        data16 = self.da.from_array(camera.astype(np.uint16) * 50)
+        with pytest.raises(ValueError, match="tone_limits is required"):
+            labyrinth(data16)
+        np.testing.assert_array_equal(
+            labyrinth(data16, tone_limits=(0, 12750)).compute(),
+            labyrinth(camera.astype(np.uint16) * 50, tone_limits=(0, 12750)),
+        )
+
+    def test_unavailable_options_say_so(self, camera):
+        lazy = self.da.from_array(camera)
+        with pytest.raises(ValueError, match="return_diagnostics"):
+            labyrinth(lazy, return_diagnostics=True)
+        with pytest.raises(ValueError, match="ProgressBar"):
+            labyrinth(lazy, progress=print)
+        with pytest.raises(TypeError, match="dtype"):
+            labyrinth(self.da.zeros((4, 4), dtype=bool))

@@ -72,6 +72,7 @@ def labyrinth(
     scan: str | None = None,
     channel_axis: int | None = None,
     tone_limits: tuple[float, float] | None = None,
+    plane_offset: int = 0,
     return_diagnostics: bool = False,
     progress: ProgressCallback | None = None,
 ):
@@ -91,10 +92,11 @@ def labyrinth(
 
     Parameters
     ----------
-    image : array_like
+    image : array_like or dask array
         2-D or nD image of an integer type up to 32 bits or a float type.
         Every axis before the last two (after removing ``channel_axis``) is
-        a set of independent planes (time, z, channels).
+        a set of independent planes (time, z, channels). A dask array gives
+        a lazy dask array (see Notes).
     preset : str, optional
         Named parameter set (see ``napari_labyrinth.PRESETS``) that supplies
         every parameter not given explicitly. ``"paper"`` is the literal
@@ -141,7 +143,12 @@ def labyrinth(
     tone_limits : (float, float), optional
         Values mapped to tones 0 and 255. Default: (0, 255) for uint8, the
         0.5th and 99.5th percentiles of the finite values for other dtypes
-        (one scale for the whole image, alpha excluded).
+        (one scale for the whole image, alpha excluded). Required for dask
+        arrays of other dtypes than uint8.
+    plane_offset : int, optional
+        Flat index of the image's first plane in a larger stack it was taken
+        from: plane k draws the random stream of plane ``plane_offset + k``,
+        so a part of a stack renders exactly as it does within the whole.
     return_diagnostics : bool, optional
         Also return the per-pass counts (see Returns).
     progress : callable, optional
@@ -174,6 +181,13 @@ def labyrinth(
     processed in float32 and mapped back; changed pixels are rounded to the
     input dtype, unchanged ones are returned bit for bit.
 
+    A dask array is rendered lazily, block by block: blocks are rechunked so
+    that each holds whole planes (and all channels), never tiled, since tiles
+    would change the result; every plane keeps the random stream of its
+    index in the whole array, so the result equals that of the same data as
+    a numpy array. Progress callbacks and diagnostics are not available for
+    lazy results (use ``dask.diagnostics.ProgressBar``).
+
     References
     ----------
     .. [1] A. Sparavigna and B. Montrucchio, "Non-photorealistic image
@@ -203,10 +217,16 @@ def labyrinth(
         include_centre=include_centre,
         scan=scan,
     )
-    seed = _validate_seed(seed)
-    prepared = _prepare(image, channel_axis, tone_limits)
-    steps = _render_steps(prepared, parameters, seed, record_passes=False)
-    rendered, diagnostics = _drive(steps, progress, total=prepared.n_planes * parameters.passes)
+    ((rendered, diagnostics),) = _render(
+        image,
+        [(parameters, _validate_seed(seed))],
+        channel_axis=channel_axis,
+        tone_limits=tone_limits,
+        plane_offset=plane_offset,
+        record_passes=False,
+        progress=progress,
+        return_diagnostics=return_diagnostics,
+    )
     return (rendered, diagnostics) if return_diagnostics else rendered
 
 
@@ -236,18 +256,13 @@ def labyrinth_stack(image, passes: int = 4, **options):
     >>> labyrinth_stack(data.camera(), passes=3).shape
     (4, 512, 512)
     """
-    return_diagnostics = options.pop("return_diagnostics", False)
-    progress = options.pop("progress", None)
-    seed = _validate_seed(options.pop("seed", 0))
-    channel_axis = options.pop("channel_axis", None)
-    tone_limits = options.pop("tone_limits", None)
-    parameters = resolve_parameters(
-        options.pop("preset", DEFAULT_PRESET), passes=passes, **options
+    render_options, overrides = _split_options(options)
+    parameters = resolve_parameters(render_options.pop("preset"), passes=passes, **overrides)
+    seed = _validate_seed(render_options.pop("seed"))
+    ((stack, diagnostics),) = _render(
+        image, [(parameters, seed)], record_passes=True, **render_options
     )
-    prepared = _prepare(image, channel_axis, tone_limits)
-    steps = _render_steps(prepared, parameters, seed, record_passes=True)
-    stack, diagnostics = _drive(steps, progress, total=prepared.n_planes * parameters.passes)
-    return (stack, diagnostics) if return_diagnostics else stack
+    return (stack, diagnostics) if render_options["return_diagnostics"] else stack
 
 
 def labyrinth_sweep(
@@ -294,38 +309,170 @@ def labyrinth_sweep(
         raise TypeError(f"{parameter} is swept; do not also pass it as a keyword")
     if isinstance(values, (str, bytes)) or not hasattr(values, "__len__") or len(values) == 0:
         raise ValueError(f"values must be a non-empty sequence, got {values!r}")
-    return_diagnostics = options.pop("return_diagnostics", False)
-    progress = options.pop("progress", None)
-    channel_axis = options.pop("channel_axis", None)
-    tone_limits = options.pop("tone_limits", None)
-    preset = options.pop("preset", DEFAULT_PRESET)
-    seed = options.pop("seed", 0)
+    render_options, overrides = _split_options(options)
+    preset, seed = render_options.pop("preset"), render_options.pop("seed")
     runs = []
     for value in values:
-        run_options = dict(options)
         if parameter == "seed":
-            run_seed = value
+            runs.append((resolve_parameters(preset, **overrides), _validate_seed(value)))
         else:
-            run_seed = seed
-            run_options[parameter] = value
-        runs.append((resolve_parameters(preset, **run_options), _validate_seed(run_seed)))
-    prepared = _prepare(image, channel_axis, tone_limits)
-    total = prepared.n_planes * sum(p.passes for p, _ in runs)
-    done = 0
-    renders, all_diagnostics = [], []
-    for parameters, run_seed in runs:
+            parameters = resolve_parameters(preset, **dict(overrides, **{parameter: value}))
+            runs.append((parameters, _validate_seed(seed)))
+    results = _render(image, runs, record_passes=False, **render_options)
+    renders = [rendered for rendered, _ in results]
+    sweep = _stack(renders)
+    if render_options["return_diagnostics"]:
+        return sweep, [diagnostics for _, diagnostics in results]
+    return sweep
 
-        def offset_progress(step, _total, start=done):
+
+#: Keywords of the rendering functions that are not parameters of the algorithm.
+_RENDER_OPTIONS = {
+    "preset": DEFAULT_PRESET,
+    "seed": 0,
+    "channel_axis": None,
+    "tone_limits": None,
+    "plane_offset": 0,
+    "return_diagnostics": False,
+    "progress": None,
+}
+
+
+def _split_options(options: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Split keyword arguments into rendering options and parameter overrides."""
+    render_options = {
+        name: options.get(name, default) for name, default in _RENDER_OPTIONS.items()
+    }
+    overrides = {name: value for name, value in options.items() if name not in _RENDER_OPTIONS}
+    return render_options, overrides
+
+
+def _stack(arrays):
+    if _is_lazy(arrays[0]):
+        import dask.array as da
+
+        return da.stack(arrays)
+    return np.stack(arrays)
+
+
+def _render(
+    image,
+    runs: list[tuple[LabyrinthParameters, int]],
+    *,
+    channel_axis,
+    tone_limits,
+    plane_offset,
+    record_passes: bool,
+    progress: ProgressCallback | None,
+    return_diagnostics: bool,
+) -> list[tuple[Any, Any]]:
+    """Render ``image`` once per ``(parameters, seed)`` run: ``[(result, diagnostics)]``."""
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be callable, got {progress!r}")
+    if not isinstance(plane_offset, numbers.Integral) or isinstance(plane_offset, bool):
+        raise TypeError(f"plane_offset must be an integer, got {plane_offset!r}")
+    if plane_offset < 0:
+        raise ValueError(f"plane_offset must be >= 0, got {plane_offset}")
+    if _is_lazy(image):
+        if return_diagnostics:
+            raise ValueError("return_diagnostics is not available for dask arrays (lazy results)")
+        if progress is not None:
+            raise ValueError(
+                "progress is not available for dask arrays: use dask.diagnostics.ProgressBar"
+            )
+        return [
+            (
+                _render_lazy(
+                    image,
+                    parameters,
+                    seed,
+                    channel_axis=channel_axis,
+                    tone_limits=tone_limits,
+                    plane_offset=int(plane_offset),
+                    record_passes=record_passes,
+                ),
+                None,
+            )
+            for parameters, seed in runs
+        ]
+    prepared = _prepare(image, channel_axis, tone_limits, plane_offset=int(plane_offset))
+    total = prepared.n_planes * sum(parameters.passes for parameters, _ in runs)
+    results = []
+    done = 0
+    for parameters, seed in runs:
+
+        def report(step, start=done):
             if progress is not None:
                 progress(start + step, total)
 
-        steps = _render_steps(prepared, parameters, run_seed, record_passes=False)
-        rendered, diagnostics = _drive(steps, offset_progress, total=total)
+        steps = _render_steps(prepared, parameters, seed, record_passes=record_passes)
+        results.append(_drive(steps, report))
         done += prepared.n_planes * parameters.passes
-        renders.append(rendered)
-        all_diagnostics.append(diagnostics)
-    sweep = np.stack(renders)
-    return (sweep, all_diagnostics) if return_diagnostics else sweep
+    return results
+
+
+def _is_lazy(image) -> bool:
+    """Whether ``image`` is a dask array (checked without importing dask)."""
+    return type(image).__module__.split(".")[0] == "dask" and hasattr(image, "chunks")
+
+
+def _render_lazy(
+    image,
+    parameters: LabyrinthParameters,
+    seed: int,
+    *,
+    channel_axis,
+    tone_limits,
+    plane_offset: int,
+    record_passes: bool,
+):
+    """A lazy dask array rendering ``image`` block by block, whole planes per block."""
+    import dask.array as da
+
+    _validate_dtype_and_shape(np.dtype(image.dtype), image.shape)
+    channel_axis = _normalise_channel_axis(channel_axis, image.ndim)
+    dtype = np.dtype(image.dtype)
+    if tone_limits is None and dtype != np.uint8:
+        raise ValueError(
+            f"tone_limits is required for a dask array of dtype {dtype}: the default "
+            "(percentiles of the data) would read the whole array; pass (low, high)"
+        )
+    scale = resolve_tone_scale(np.empty(0, dtype), tone_limits)
+    planes = image if channel_axis is None else da.moveaxis(image, channel_axis, -3)
+    whole = {planes.ndim - 2: -1, planes.ndim - 1: -1}
+    if channel_axis is not None:
+        whole[planes.ndim - 3] = -1  # alpha is recognised by its position among all channels
+    planes = planes.rechunk(whole)
+    block_channel_axis = None if channel_axis is None else planes.ndim - 3
+    leading_total = planes.shape[:-2]
+
+    def render_block(block, block_info=None):
+        location = block_info[0]["array-location"]
+        prepared = _Prepared(
+            block,
+            block_channel_axis,
+            scale,
+            plane_offset=plane_offset,
+            leading_origin=tuple(start for start, _ in location[:-2]),
+            leading_total=leading_total,
+        )
+        result, _ = _drive(_render_steps(prepared, parameters, seed, record_passes=record_passes))
+        return result
+
+    if record_passes:
+        rendered = planes.map_blocks(
+            render_block,
+            new_axis=0,
+            chunks=((parameters.passes + 1,),) + planes.chunks,
+            dtype=dtype,
+        )
+        shift = 1
+    else:
+        rendered = planes.map_blocks(render_block, dtype=dtype)
+        shift = 0
+    if channel_axis is not None:
+        rendered = da.moveaxis(rendered, -3, channel_axis + shift)
+    return rendered
 
 
 def resolve_parameters(preset: str = DEFAULT_PRESET, **overrides: Any) -> LabyrinthParameters:
@@ -360,6 +507,19 @@ class _Prepared:
     image: np.ndarray  # the caller's data, never written to
     channel_axis: int | None
     scale: ToneScale
+    plane_offset: int = 0
+    # where the image's planes lie in the whole array it is a block of
+    leading_origin: tuple[int, ...] | None = None
+    leading_total: tuple[int, ...] | None = None
+
+    def plane_index(self, index: tuple[int, ...]) -> int:
+        """Index of the random stream of the plane at ``index`` of ``planes``."""
+        if self.leading_total is None:
+            flat = np.ravel_multi_index(index, self.planes.shape[:-2]) if index else 0
+        else:
+            where = tuple(o + i for o, i in zip(self.leading_origin, index))
+            flat = np.ravel_multi_index(where, self.leading_total) if where else 0
+        return self.plane_offset + int(flat)
 
     @property
     def planes(self) -> np.ndarray:
@@ -393,22 +553,12 @@ def _spatial_axes(ndim: int, channel_axis: int | None) -> tuple[int, int]:
     return axes[-2], axes[-1]
 
 
-def _prepare(image: Any, channel_axis: int | None, tone_limits: Any) -> _Prepared:
+def _prepare(
+    image: Any, channel_axis: int | None, tone_limits: Any, *, plane_offset: int = 0
+) -> _Prepared:
     array = _validate_image(image)
-    if channel_axis is not None:
-        if not isinstance(channel_axis, numbers.Integral) or isinstance(channel_axis, bool):
-            raise TypeError(f"channel_axis must be an integer or None, got {channel_axis!r}")
-        if array.ndim < 3:
-            raise ValueError(
-                f"channel_axis needs an image of at least 3 dimensions, got {array.ndim}"
-            )
-        if not -array.ndim <= channel_axis < array.ndim:
-            raise ValueError(
-                f"channel_axis {channel_axis} is out of range for an image of "
-                f"{array.ndim} dimensions"
-            )
-        channel_axis = int(channel_axis) % array.ndim
-    prepared = _Prepared(array, channel_axis, ToneScale(0.0, 255.0))
+    channel_axis = _normalise_channel_axis(channel_axis, array.ndim)
+    prepared = _Prepared(array, channel_axis, ToneScale(0.0, 255.0), plane_offset=plane_offset)
     colour = prepared.planes
     if channel_axis is not None and colour.shape[-3] == 4:
         colour = colour[..., :3, :, :]  # the tone scale ignores alpha
@@ -416,41 +566,56 @@ def _prepare(image: Any, channel_axis: int | None, tone_limits: Any) -> _Prepare
     return prepared
 
 
+def _normalise_channel_axis(channel_axis: Any, ndim: int) -> int | None:
+    if channel_axis is None:
+        return None
+    if not isinstance(channel_axis, numbers.Integral) or isinstance(channel_axis, bool):
+        raise TypeError(f"channel_axis must be an integer or None, got {channel_axis!r}")
+    if ndim < 3:
+        raise ValueError(f"channel_axis needs an image of at least 3 dimensions, got {ndim}")
+    if not -ndim <= channel_axis < ndim:
+        raise ValueError(
+            f"channel_axis {channel_axis} is out of range for an image of {ndim} dimensions"
+        )
+    return int(channel_axis) % ndim
+
+
 def _validate_image(image: Any) -> np.ndarray:
     if isinstance(image, (str, bytes)) or image is None:
         raise TypeError(f"image must be an array, got {type(image).__name__}")
     array = np.asarray(image)
-    if array.dtype not in _SUPPORTED_DTYPES:
-        if array.dtype.kind in "iu":
+    _validate_dtype_and_shape(array.dtype, array.shape)
+    return array
+
+
+def _validate_dtype_and_shape(dtype: np.dtype, shape: tuple[int, ...]) -> None:
+    if dtype not in _SUPPORTED_DTYPES:
+        if dtype.kind in "iu":
             hint = "; 64-bit integers usually hold labels: cast an intensity image to float32"
         else:
             hint = ""
         raise TypeError(
-            f"image dtype {array.dtype} is not supported: use an integer type up to "
+            f"image dtype {dtype} is not supported: use an integer type up to "
             f"32 bits or a float type{hint}"
         )
-    if array.ndim < 2:
-        raise ValueError(f"image must have at least 2 dimensions, got {array.ndim}")
-    if array.size == 0:
-        raise ValueError(f"image is empty (shape {array.shape})")
-    return array
+    if len(shape) < 2:
+        raise ValueError(f"image must have at least 2 dimensions, got {len(shape)}")
+    if 0 in shape:
+        raise ValueError(f"image is empty (shape {shape})")
 
 
 def _drive(
     steps: Generator[int, None, tuple[np.ndarray, np.ndarray]],
-    progress: ProgressCallback | None,
-    total: int,
+    on_step: Callable[[int], Any] | None = None,
 ):
-    """Run a ``_render_steps`` generator to its end, reporting progress."""
-    if progress is not None and not callable(progress):
-        raise TypeError(f"progress must be callable, got {progress!r}")
+    """Run a ``_render_steps`` generator to its end, calling ``on_step(done)`` on each step."""
     while True:
         try:
             done = next(steps)
         except StopIteration as finished:
             return finished.value
-        if progress is not None:
-            progress(done, total)
+        if on_step is not None:
+            on_step(done)
 
 
 def _render_steps(
@@ -483,7 +648,7 @@ def _render_steps(
     counts = np.zeros((passes,) + leading_shape + (len(DIAGNOSTIC_FIELDS),), dtype=np.int64)
 
     done = 0
-    for plane_index, index in enumerate(np.ndindex(leading_shape)):
+    for index in np.ndindex(leading_shape):
         if prepared.is_alpha(index):
             counts[(slice(None),) + index + (DIAGNOSTIC_FIELDS.index("skipped"),)] = plane_size
             continue
@@ -496,7 +661,7 @@ def _render_steps(
                 work,
                 parameters,
                 seed=seed,
-                plane_index=plane_index,
+                plane_index=prepared.plane_index(index),
                 pass_index=pass_index,
                 counts=counts[(pass_index,) + index],
                 has_nonfinite=has_nonfinite,
