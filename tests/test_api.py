@@ -22,13 +22,15 @@ def camera():
     return data.camera()[::4, ::4].copy()  # 128 x 128 uint8
 
 
-def test_uint8_result_matches_the_reference_reading(camera):
-    image = camera[:24, :20]
-    parameters = resolve_parameters("paper", passes=2)
-    got = labyrinth(image, passes=2, seed=4)
+@pytest.mark.parametrize("preset", ["paper", "labyrinth", "edges"])
+def test_uint8_result_matches_the_reference_reading(camera, preset):
+    image = camera[30:54, 20:44]  # the head and the collar: edges and flat areas
+    parameters = resolve_parameters(preset, passes=2)
+    got = labyrinth(image, preset=preset, passes=2, seed=4)
     tones, _ = reference_render(image.astype(np.float32), parameters, seed=4)
     want = np.where(tones != image, np.clip(np.rint(tones), 0, 255), image).astype(np.uint8)
     np.testing.assert_array_equal(got, want)
+    assert (got != image).sum() > 10
 
 
 def test_shape_dtype_kept_and_input_untouched(camera):
@@ -45,7 +47,7 @@ def test_shape_dtype_kept_and_input_untouched(camera):
 def test_unchanged_pixels_keep_their_exact_values():
     rng = np.random.default_rng(3)
     image = rng.normal(1000.0, 200.0, (40, 50))  # float64, mapped to 0-255 and back
-    out = labyrinth(image)
+    out = labyrinth(image, preset="paper")
     same = out == image
     assert same.mean() > 0.3
     changed = ~same
@@ -215,12 +217,24 @@ def test_sweep_over_seeds_and_passes(camera):
     assert calls == [(k, 4) for k in range(1, 5)]
 
 
+def test_labyrinth_is_the_default_preset_and_paper_stays_literal(camera):
+    assert napari_labyrinth.presets.DEFAULT_PRESET == "labyrinth"
+    np.testing.assert_array_equal(labyrinth(camera), labyrinth(camera, preset="labyrinth"))
+    labyrinth_parameters = resolve_parameters()
+    assert labyrinth_parameters.variance_action == "push"
+    assert labyrinth_parameters.condition_order == "variance_first"
+    assert labyrinth_parameters.variance_ratio == "sqrt(V/N)/M"  # as printed
+    paper = resolve_parameters("paper")
+    assert (paper.variance_action, paper.condition_order) == ("leave", "mean_first")
+    assert resolve_parameters("edges").passes == 8
+
+
 def test_presets_supply_defaults_and_keywords_override_them():
     paper = resolve_parameters("paper")
     assert paper.mean_threshold == 0.12 and paper.variance_threshold == 0.5
     assert paper.variance_ratio == "sqrt(V/N)/M" and paper.border == "inside"
     assert paper.tone_ranges[0] > 0 and paper.tone_ranges[-1] == 255 and len(paper.tones) == 3
-    assert set(PRESETS) >= {"paper"}
+    assert set(PRESETS) >= {"paper", "labyrinth", "edges"}
     custom = resolve_parameters("paper", mean_threshold=0.2, tone_ranges=(5, 100, 255))
     assert custom.mean_threshold == 0.2
     assert custom.tones == ((5.0, 100.0), (100.0, 255.0))  # T = L for the new ranges
@@ -229,7 +243,11 @@ def test_presets_supply_defaults_and_keywords_override_them():
 
 def test_tones_shape_the_redrawn_values(camera):
     out = labyrinth(
-        camera, tone_ranges=(10, 128, 255), tones=((40, 60), (200, 220)), on_exhausted="last_draw"
+        camera,
+        preset="paper",
+        tone_ranges=(10, 128, 255),
+        tones=((40, 60), (200, 220)),
+        on_exhausted="last_draw",
     )
     changed = out[out != camera]
     assert changed.size > 0
@@ -237,7 +255,7 @@ def test_tones_shape_the_redrawn_values(camera):
 
 
 def test_options_change_the_result(camera):
-    base = labyrinth(camera, passes=2)
+    base = labyrinth(camera, preset="paper", passes=2)
     for option in (
         dict(border="mirror"),
         dict(variance_ratio="sqrt(V)/M"),
@@ -248,7 +266,8 @@ def test_options_change_the_result(camera):
         dict(scan="serpentine"),
         dict(max_tries=1),
     ):
-        assert not np.array_equal(base, labyrinth(camera, passes=2, **option)), option
+        other = labyrinth(camera, preset="paper", passes=2, **option)
+        assert not np.array_equal(base, other), option
 
 
 def test_import_does_not_load_numba():
@@ -398,7 +417,9 @@ class TestDask:
         )
         sweep = labyrinth_sweep(self.da.from_array(rgb[..., 0]), "seed", [1, 2])
         assert isinstance(sweep, self.da.Array)
-        np.testing.assert_array_equal(sweep.compute(), labyrinth_sweep(rgb[..., 0], "seed", [1, 2]))
+        np.testing.assert_array_equal(
+            sweep.compute(), labyrinth_sweep(rgb[..., 0], "seed", [1, 2])
+        )
 
     def test_other_dtypes_need_tone_limits(self, camera):
         data16 = self.da.from_array(camera.astype(np.uint16) * 50)
