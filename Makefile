@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test bench install install-test system-packages clean
+.PHONY: demo test bench study gallery install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
@@ -15,6 +15,13 @@ test: $(VENV)/.installed-test system-packages
 
 bench: $(VENV)/.installed
 	$(PY) benchmarks/bench_kernel.py
+
+# The study behind the presets (docs/study/) and the paper's figures (docs/gallery/).
+study: $(VENV)/.installed
+	$(PY) benchmarks/study.py
+
+gallery: $(VENV)/.installed-docs
+	$(PY) benchmarks/gallery.py
 
 install: $(VENV)/.installed
 install-test: $(VENV)/.installed-test
@@ -29,6 +36,10 @@ $(VENV)/.installed: $(PY) pyproject.toml
 
 $(VENV)/.installed-test: $(VENV)/.installed pyproject.toml
 	$(PIP) install -e ".[test]"
+	touch $@
+
+$(VENV)/.installed-docs: $(VENV)/.installed pyproject.toml
+	$(PIP) install -e ".[docs]"
 	touch $@
 
 # Headless Qt needs an X server (Xvfb) and two xcb libraries beyond the base image.

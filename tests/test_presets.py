@@ -60,8 +60,7 @@ def test_the_literal_reading_stays_literal(image):
     assert metrics.texture_added(image, out) < 1.0
 
 
-def test_edges_preset_keeps_its_texture_on_the_edges_pass_after_pass(image):
-    stack = labyrinth_stack(image, preset="edges", passes=8)
-    scores = [metrics.edge_enhancement(image, stack[k]) for k in (1, 8)]
-    assert min(scores) > 0.1
-    assert np.mean(stack[8] != image) < 0.8
+def test_labyrinth_walls_stay_on_the_edges_pass_after_pass(image):
+    stack = labyrinth_stack(image, passes=8)
+    for k in (1, 4, 8):
+        assert metrics.edge_enhancement(image, stack[k]) > 0.2, k

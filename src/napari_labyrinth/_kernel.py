@@ -59,6 +59,15 @@ def _ratio(numerator, mean):
 
 
 @njit(inline="always")
+def _tone_range(g, range_bounds, n_ranges):
+    """Index i of the tone range that holds g (Eq. 3); tones below L_inf^1 are in the first."""
+    i = 0
+    while i < n_ranges - 1 and g >= range_bounds[i]:
+        i += 1
+    return i
+
+
+@njit(inline="always")
 def _border_index(i, n, border):
     """Index of a neighbour coordinate ``i`` on an axis of length ``n``; -1 if dropped."""
     if 0 <= i < n:
@@ -231,12 +240,18 @@ def labyrinth_pass(
                 if variance_action == 0:  # leave g as it is
                     counts[1] += 1
                     continue
-                # push: draw on g's side of M, between M and the end of the
-                # tone scale, until g* lies further from M than g does.
+                # push: draw on g's side of M, within g's tone range (Eq. 3)
+                # or up to the end of the tone scale, until g* lies further
+                # from M than g does.
                 pixel_key = _mix(key ^ np.uint64(y * width + x))
                 upward = g >= mean
-                low = mean if upward else tone_low[0]
-                span = (tone_high[n_ranges - 1] if upward else mean) - low
+                if variance_action == 1:
+                    i = _tone_range(g, range_bounds, n_ranges)
+                    low = max(mean, tone_low[i]) if upward else tone_low[i]
+                    span = (tone_high[i] if upward else min(mean, tone_high[i])) - low
+                else:
+                    low = mean if upward else tone_low[0]
+                    span = (tone_high[n_ranges - 1] if upward else mean) - low
                 pushed = False
                 for attempt in range(max_tries):
                     draw = np.float32(low + _uniform(pixel_key, attempt) * span)
@@ -257,9 +272,7 @@ def labyrinth_pass(
                 continue
 
             # Eq. 3: draw tones in the range that holds g until Eq. 2 holds.
-            i = 0
-            while i < n_ranges - 1 and g >= range_bounds[i]:
-                i += 1
+            i = _tone_range(g, range_bounds, n_ranges)
             low = tone_low[i]
             width_i = tone_high[i] - low
             pixel_key = _mix(key ^ np.uint64(y * width + x))

@@ -38,6 +38,14 @@ def _ratio(numerator, mean):
     return 0.0 if numerator == 0.0 else math.inf
 
 
+def _tone_range(g, range_limits, n_ranges):
+    """The range i with L_inf^i <= g < L_sup^i (below L_inf^1: the first; 255: the last)."""
+    i = 0
+    while i < n_ranges - 1 and g >= range_limits[i + 1]:
+        i += 1
+    return i
+
+
 def _neighbour_coordinate(i, n, border):
     if 0 <= i < n:
         return i
@@ -146,8 +154,14 @@ def reference_pass(
                 if variance_action == "leave":
                     counts["left_by_variance"] += 1
                     continue
-                # push g away from M: draws between M and the end of the scale on g's side
-                if g >= mean:
+                # push g away from M: draws on g's side of M, in g's tone range
+                # or up to the end of the tone scale
+                t_inf, t_sup = tones[_tone_range(g, range_limits, len(tones))]
+                if variance_action == "push_in_range":
+                    low, high = (
+                        (max(mean, t_inf), t_sup) if g >= mean else (t_inf, min(mean, t_sup))
+                    )
+                elif g >= mean:
                     low, high = mean, tones[-1][1]
                 else:
                     low, high = tones[0][0], mean
@@ -167,10 +181,7 @@ def reference_pass(
                 counts["kept_by_mean"] += 1
                 continue
 
-            i = 0
-            while i < len(tones) - 1 and g >= range_limits[i + 1]:
-                i += 1
-            t_inf, t_sup = tones[i]
+            t_inf, t_sup = tones[_tone_range(g, range_limits, len(tones))]
             draw = None
             accepted = False
             for attempt in range(max_tries):

@@ -126,9 +126,10 @@ def labyrinth(
         number; paper preset), or completed as the ``scipy.ndimage`` modes.
     variance_ratio : {"sqrt(V/N)/M", "sqrt(V)/M"}, optional
         R2 of Eq. 4: as printed, or with the local standard deviation.
-    variance_action : {"leave", "push"}, optional
-        Where Eq. 4 holds: leave g (as printed) or push it further from M
-        with a draw on its side of M (enhances the local variance).
+    variance_action : {"leave", "push_in_range", "push_full_scale"}, optional
+        Where Eq. 4 holds: leave g (as printed), or push it further from M
+        with a draw on its side of M, in its tone range or up to the end of
+        the tone scale (enhances the local variance).
     condition_order : {"mean_first", "variance_first"}, optional
         Whether Eq. 2 (as printed) or Eq. 4 decides first.
     on_exhausted : {"keep", "last_draw"}, optional

@@ -23,7 +23,7 @@ MAX_TRIES_LIMIT = 10_000
 
 BORDERS = ("inside", "mirror", "nearest", "wrap")
 VARIANCE_RATIOS = ("sqrt(V/N)/M", "sqrt(V)/M")
-VARIANCE_ACTIONS = ("leave", "push")
+VARIANCE_ACTIONS = ("leave", "push_in_range", "push_full_scale")
 CONDITION_ORDERS = ("mean_first", "variance_first")
 ON_EXHAUSTED = ("keep", "last_draw")
 SCANS = ("raster", "serpentine")
@@ -32,7 +32,7 @@ SCANS = ("raster", "serpentine")
 DIAGNOSTIC_FIELDS = (
     "kept_by_mean",  # Eq. 2 held: g kept
     "left_by_variance",  # Eq. 4 held: g left as it is (no push succeeded)
-    "pushed",  # Eq. 4 held: a draw further from M replaced g (variance_action="push")
+    "pushed",  # Eq. 4 held: a draw further from M replaced g (the push readings)
     "redrawn",  # a draw of Eq. 3 satisfied Eq. 2 and replaced g
     "out_of_tries",  # max_tries draws, none satisfied Eq. 2
     "skipped",  # g not finite, or no finite neighbour
@@ -64,12 +64,14 @@ class LabyrinthParameters:
         as ``scipy.ndimage`` modes of the same names do.
     variance_ratio : {"sqrt(V/N)/M", "sqrt(V)/M"}
         The ratio R2 of Eq. 4: as printed, or with the standard deviation.
-    variance_action : {"leave", "push"}
+    variance_action : {"leave", "push_in_range", "push_full_scale"}
         What Eq. 4 does to a pixel where it holds. ``"leave"``: as printed,
-        the substitution is not applied. ``"push"``: tones are drawn on g's
-        side of M, between M and the end of the tone scale, until one lies
-        further from M than g (relative to M); it replaces g. A reading of
-        "a condition ... able to strongly enhance the local variance".
+        the substitution is not applied. The pushes read Eq. 4 as "a
+        condition ... able to strongly enhance the local variance": tones are
+        drawn on g's side of M until one lies further from M than g
+        (relative to M), and it replaces g. ``"push_in_range"`` draws them in
+        g's tone range (Eq. 3), ``"push_full_scale"`` between M and the end
+        of the tone scale.
     condition_order : {"mean_first", "variance_first"}
         Which condition decides first: Eq. 2 (as printed: Eq. 4 only for
         pixels that fail Eq. 2) or Eq. 4 (it acts on every pixel where it
