@@ -131,6 +131,9 @@ def labyrinth_pass(
     scan,
     has_nonfinite,
     counts,
+    colour=-1,
+    row_start=0,
+    row_stop=-1,
 ):
     """Run one pass of the algorithm over ``plane`` in place.
 
@@ -163,17 +166,34 @@ def labyrinth_pass(
         interior pixels take a path without checks.
     counts : (6,) int64 array
         Incremented in the order of ``parameters.DIAGNOSTIC_FIELDS``.
+    colour : int, optional
+        -1 scans every pixel in the order of ``scan``; 0-3 only the pixels of
+        one checkerboard colour, ``(y % 2, x % 2) == (colour // 2, colour % 2)``,
+        row by row (``scan="checkerboard"`` runs the four colours in turn).
+    row_start, row_stop : int, optional
+        The rows to scan (a band of the plane; -1: to the last row). Bands of
+        one colour may run concurrently on threads: the kernel holds no GIL.
     """
     height, width = plane.shape
     key = stream_key(seed, plane_index, pass_index)
     neighbours = np.empty(9, dtype=np.float64)
     n_ranges = tone_low.shape[0]
     fast = not has_nonfinite
-    for y in range(height):
+    if row_stop < 0:
+        row_stop = height
+    # A checkerboard colour c holds the pixels with (y mod 2, x mod 2) =
+    # (c // 2, c % 2): no two of them are neighbours, so they can be updated
+    # in any order, by several threads at once, with the same result.
+    x_first = 0 if colour < 0 else colour & 1
+    x_step = 1 if colour < 0 else 2
+    columns = (width - x_first + x_step - 1) // x_step
+    for y in range(row_start, row_stop):
+        if colour >= 0 and (y & 1) != (colour >> 1):
+            continue
         reverse = scan == 1 and (y & 1) == 1
         interior_row = fast and 0 < y < height - 1
-        for step in range(width):
-            x = width - 1 - step if reverse else step
+        for step in range(columns):
+            x = width - 1 - step if reverse else x_first + step * x_step
             g = np.float64(plane[y, x])
             if not math.isfinite(g):
                 counts[5] += 1

@@ -100,104 +100,114 @@ def reference_pass(
         ),
         0,
     )
-    for y in range(height):
-        columns = range(width)
-        if scan == "serpentine" and y % 2 == 1:
-            columns = reversed(columns)
-        for x in columns:
-            g = float(g_plane[y, x])
-            if not math.isfinite(g):
-                counts["skipped"] += 1
+    if scan == "checkerboard":  # colour by colour, each in raster order
+        order = [
+            (y, x)
+            for colour in range(4)
+            for y in range(colour // 2, height, 2)
+            for x in range(colour % 2, width, 2)
+        ]
+    else:
+        order = []
+        for y in range(height):
+            columns = range(width)
+            if scan == "serpentine" and y % 2 == 1:
+                columns = reversed(columns)
+            order += [(y, x) for x in columns]
+    for y, x in order:
+        g = float(g_plane[y, x])
+        if not math.isfinite(g):
+            counts["skipped"] += 1
+            continue
+        values = []
+        for dy in (-1, 0, 1):
+            yy = _neighbour_coordinate(y + dy, height, border)
+            if yy is None:
                 continue
-            values = []
-            for dy in (-1, 0, 1):
-                yy = _neighbour_coordinate(y + dy, height, border)
-                if yy is None:
+            for dx in (-1, 0, 1):
+                if dy == dx == 0:
                     continue
-                for dx in (-1, 0, 1):
-                    if dy == dx == 0:
-                        continue
-                    xx = _neighbour_coordinate(x + dx, width, border)
-                    if xx is None:
-                        continue
-                    value = float(g_plane[yy, xx])
-                    if math.isfinite(value):
-                        values.append(value)
-            if not values:
-                counts["skipped"] += 1
-                continue
-            neighbour_sum = 0.0
-            for value in values:
-                neighbour_sum += value
-            if include_centre:
-                values.append(g)
-                n = len(values)
-                mean = (neighbour_sum + g) / n
-            else:
-                n = len(values)
-                mean = neighbour_sum / n
-
-            mean_ratio = _ratio(abs(g - mean), mean)
-            if mean_ratio <= mean_threshold and condition_order == "mean_first":  # Eq. 2
-                counts["kept_by_mean"] += 1
-                continue
-
-            squares = 0.0
-            for value in values:
-                squares += (value - mean) * (value - mean)
-            variance = squares / n  # Eq. 1
-            if variance_ratio == "sqrt(V/N)/M":
-                spread = math.sqrt(variance / n)
-            else:
-                spread = math.sqrt(variance)
-            if _ratio(spread, mean) > variance_threshold:  # Eq. 4
-                if variance_action == "leave":
-                    counts["left_by_variance"] += 1
+                xx = _neighbour_coordinate(x + dx, width, border)
+                if xx is None:
                     continue
-                # push g away from M: draws on g's side of M, in g's tone range
-                # or up to the end of the tone scale
-                t_inf, t_sup = tones[_tone_range(g, range_limits, len(tones))]
-                if variance_action == "push_in_range":
-                    low, high = (
-                        (max(mean, t_inf), t_sup) if g >= mean else (t_inf, min(mean, t_sup))
-                    )
-                elif g >= mean:
-                    low, high = mean, tones[-1][1]
-                else:
-                    low, high = tones[0][0], mean
-                for attempt in range(max_tries):
-                    r = uniform(seed, plane_index, pass_index, y * width + x, attempt)
-                    draw = float(np.float32(low + r * (high - low)))
-                    draw_mean = (neighbour_sum + draw) / n if include_centre else mean
-                    further_out = draw > draw_mean if g >= mean else draw < draw_mean
-                    if further_out and _ratio(abs(draw - draw_mean), draw_mean) > mean_ratio:
-                        g_plane[y, x] = draw
-                        counts["pushed"] += 1
-                        break
-                else:
-                    counts["left_by_variance"] += 1
-                continue
-            if mean_ratio <= mean_threshold:  # Eq. 2, after Eq. 4
-                counts["kept_by_mean"] += 1
-                continue
+                value = float(g_plane[yy, xx])
+                if math.isfinite(value):
+                    values.append(value)
+        if not values:
+            counts["skipped"] += 1
+            continue
+        neighbour_sum = 0.0
+        for value in values:
+            neighbour_sum += value
+        if include_centre:
+            values.append(g)
+            n = len(values)
+            mean = (neighbour_sum + g) / n
+        else:
+            n = len(values)
+            mean = neighbour_sum / n
 
+        mean_ratio = _ratio(abs(g - mean), mean)
+        if mean_ratio <= mean_threshold and condition_order == "mean_first":  # Eq. 2
+            counts["kept_by_mean"] += 1
+            continue
+
+        squares = 0.0
+        for value in values:
+            squares += (value - mean) * (value - mean)
+        variance = squares / n  # Eq. 1
+        if variance_ratio == "sqrt(V/N)/M":
+            spread = math.sqrt(variance / n)
+        else:
+            spread = math.sqrt(variance)
+        if _ratio(spread, mean) > variance_threshold:  # Eq. 4
+            if variance_action == "leave":
+                counts["left_by_variance"] += 1
+                continue
+            # push g away from M: draws on g's side of M, in g's tone range
+            # or up to the end of the tone scale
             t_inf, t_sup = tones[_tone_range(g, range_limits, len(tones))]
-            draw = None
-            accepted = False
+            if variance_action == "push_in_range":
+                low, high = (
+                    (max(mean, t_inf), t_sup) if g >= mean else (t_inf, min(mean, t_sup))
+                )
+            elif g >= mean:
+                low, high = mean, tones[-1][1]
+            else:
+                low, high = tones[0][0], mean
             for attempt in range(max_tries):
                 r = uniform(seed, plane_index, pass_index, y * width + x, attempt)
-                draw = float(np.float32(t_inf + r * (t_sup - t_inf)))  # Eq. 3
+                draw = float(np.float32(low + r * (high - low)))
                 draw_mean = (neighbour_sum + draw) / n if include_centre else mean
-                if _ratio(abs(draw - draw_mean), draw_mean) <= mean_threshold:
-                    accepted = True
-                    break
-            if accepted:
-                g_plane[y, x] = draw
-                counts["redrawn"] += 1
-            else:
-                counts["out_of_tries"] += 1
-                if on_exhausted == "last_draw" and draw is not None:
+                further_out = draw > draw_mean if g >= mean else draw < draw_mean
+                if further_out and _ratio(abs(draw - draw_mean), draw_mean) > mean_ratio:
                     g_plane[y, x] = draw
+                    counts["pushed"] += 1
+                    break
+            else:
+                counts["left_by_variance"] += 1
+            continue
+        if mean_ratio <= mean_threshold:  # Eq. 2, after Eq. 4
+            counts["kept_by_mean"] += 1
+            continue
+
+        t_inf, t_sup = tones[_tone_range(g, range_limits, len(tones))]
+        draw = None
+        accepted = False
+        for attempt in range(max_tries):
+            r = uniform(seed, plane_index, pass_index, y * width + x, attempt)
+            draw = float(np.float32(t_inf + r * (t_sup - t_inf)))  # Eq. 3
+            draw_mean = (neighbour_sum + draw) / n if include_centre else mean
+            if _ratio(abs(draw - draw_mean), draw_mean) <= mean_threshold:
+                accepted = True
+                break
+        if accepted:
+            g_plane[y, x] = draw
+            counts["redrawn"] += 1
+        else:
+            counts["out_of_tries"] += 1
+            if on_exhausted == "last_draw" and draw is not None:
+                g_plane[y, x] = draw
     return g_plane, counts
 
 

@@ -12,7 +12,10 @@ from __future__ import annotations
 import dataclasses
 import functools
 import numbers
+import os
+import queue
 from collections.abc import Callable, Generator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -73,6 +76,7 @@ def labyrinth(
     channel_axis: int | None = None,
     tone_limits: tuple[float, float] | None = None,
     plane_offset: int = 0,
+    workers: int | None = None,
     return_diagnostics: bool = False,
     progress: ProgressCallback | None = None,
 ):
@@ -150,6 +154,10 @@ def labyrinth(
         Flat index of the image's first plane in a larger stack it was taken
         from: plane k draws the random stream of plane ``plane_offset + k``,
         so a part of a stack renders exactly as it does within the whole.
+    workers : int, optional
+        Threads to use (default: every core). Planes run concurrently; a
+        single plane uses them only with ``scan="checkerboard"``. The result
+        does not depend on it.
     return_diagnostics : bool, optional
         Also return the per-pass counts (see Returns).
     progress : callable, optional
@@ -224,6 +232,7 @@ def labyrinth(
         channel_axis=channel_axis,
         tone_limits=tone_limits,
         plane_offset=plane_offset,
+        workers=workers,
         record_passes=False,
         progress=progress,
         return_diagnostics=return_diagnostics,
@@ -334,6 +343,7 @@ _RENDER_OPTIONS = {
     "channel_axis": None,
     "tone_limits": None,
     "plane_offset": 0,
+    "workers": None,
     "return_diagnostics": False,
     "progress": None,
 }
@@ -363,11 +373,18 @@ def _render(
     channel_axis,
     tone_limits,
     plane_offset,
+    workers,
     record_passes: bool,
     progress: ProgressCallback | None,
     return_diagnostics: bool,
 ) -> list[tuple[Any, Any]]:
     """Render ``image`` once per ``(parameters, seed)`` run: ``[(result, diagnostics)]``."""
+    if workers is None:
+        workers = os.cpu_count() or 1
+    if not isinstance(workers, numbers.Integral) or isinstance(workers, bool):
+        raise TypeError(f"workers must be an integer or None, got {workers!r}")
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be callable, got {progress!r}")
     if not isinstance(plane_offset, numbers.Integral) or isinstance(plane_offset, bool):
@@ -406,7 +423,9 @@ def _render(
             if progress is not None:
                 progress(start + step, total)
 
-        steps = _render_steps(prepared, parameters, seed, record_passes=record_passes)
+        steps = _render_steps(
+            prepared, parameters, seed, record_passes=record_passes, workers=int(workers)
+        )
         results.append(_drive(steps, report))
         done += prepared.n_planes * parameters.passes
     return results
@@ -625,12 +644,15 @@ def _render_steps(
     seed: int,
     *,
     record_passes: bool,
+    workers: int = 1,
 ) -> Generator[int, None, tuple[np.ndarray, np.ndarray]]:
     """Render plane by plane, yielding the count of plane-passes done.
 
-    Returns (as the generator's value) the rendered image, or with
-    ``record_passes`` the stack of the input and every pass, and the
-    diagnostics.
+    With several planes and ``workers > 1``, planes run concurrently on
+    threads (the kernel holds no GIL); with one plane the workers share its
+    checkerboard bands. Returns (as the
+    generator's value) the rendered image, or with ``record_passes`` the
+    stack of the input and every pass, and the diagnostics.
     """
     image = prepared.image
     passes = parameters.passes
@@ -647,14 +669,18 @@ def _render_steps(
     leading_shape = source_planes.shape[:-2]
     plane_size = source_planes.shape[-2] * source_planes.shape[-1]
     counts = np.zeros((passes,) + leading_shape + (len(DIAGNOSTIC_FIELDS),), dtype=np.int64)
-
-    done = 0
+    planes = []
     for index in np.ndindex(leading_shape):
         if prepared.is_alpha(index):
             counts[(slice(None),) + index + (DIAGNOSTIC_FIELDS.index("skipped"),)] = plane_size
-            continue
-        source = source_planes[index]
-        initial = np.ascontiguousarray(prepared.scale.to_tones(source))
+        else:
+            planes.append(index)
+    plane_workers = max(1, min(workers, len(planes)))
+    band_workers = workers if plane_workers == 1 else 1
+
+    def render_plane(index):
+        """Every pass over one plane, yielding after each."""
+        initial = np.ascontiguousarray(prepared.scale.to_tones(source_planes[index]))
         has_nonfinite = image.dtype.kind == "f" and not np.isfinite(initial).all()
         work = initial.copy()
         for pass_index in range(passes):
@@ -666,13 +692,42 @@ def _render_steps(
                 pass_index=pass_index,
                 counts=counts[(pass_index,) + index],
                 has_nonfinite=has_nonfinite,
+                workers=band_workers,
             )
             if record_passes:
                 _write_changes(targets[pass_index][index], initial, work, prepared.scale)
-            done += 1
-            yield done
+            yield
         if not record_passes and passes:
             _write_changes(targets[0][index], initial, work, prepared.scale)
+
+    done = 0
+    if plane_workers == 1:
+        for index in planes:
+            for _ in render_plane(index):
+                done += 1
+                yield done
+    else:
+        finished = queue.SimpleQueue()  # one item per plane-pass, or an error
+
+        def run(index):
+            try:
+                for _ in render_plane(index):
+                    finished.put(None)
+            except BaseException as error:
+                finished.put(error)
+
+        with ThreadPoolExecutor(plane_workers) as pool:
+            futures = [pool.submit(run, index) for index in planes]
+            try:
+                for _ in range(len(planes) * passes):
+                    item = finished.get()
+                    if item is not None:
+                        raise item
+                    done += 1
+                    yield done
+            finally:  # on an error or when the caller stops early
+                for future in futures:
+                    future.cancel()
     diagnostics = prepared.to_image_layout(counts.view(DIAGNOSTICS_DTYPE)[..., 0])
     return result, np.ascontiguousarray(diagnostics)
 
@@ -686,13 +741,16 @@ def run_pass(
     pass_index: int = 0,
     counts: np.ndarray | None = None,
     has_nonfinite: bool | None = None,
+    workers: int = 1,
 ) -> np.ndarray:
     """Run one pass of the numba kernel on a float32 plane of 0-255 tones, in place.
 
     The low-level entry point under :func:`labyrinth` (no tone mapping, no
     copies, no validation of ``tones``): ``tones`` must be a C-contiguous
     2-D float32 array. ``counts``, if given, is an int64 array of
-    ``len(DIAGNOSTIC_FIELDS)`` that the pass increments. Returns ``counts``.
+    ``len(DIAGNOSTIC_FIELDS)`` that the pass increments. With
+    ``scan="checkerboard"``, ``workers`` threads share each colour's rows.
+    Returns ``counts``.
     """
     from ._kernel import labyrinth_pass  # numba is imported on first use only
 
@@ -700,7 +758,7 @@ def run_pass(
         counts = np.zeros(len(DIAGNOSTIC_FIELDS), dtype=np.int64)
     if has_nonfinite is None:
         has_nonfinite = not np.isfinite(tones).all()
-    labyrinth_pass(
+    arguments = (
         tones,
         parameters.mean_threshold,
         parameters.variance_threshold,
@@ -717,8 +775,24 @@ def run_pass(
         parameters.include_centre,
         SCANS.index(parameters.scan),
         has_nonfinite,
-        counts,
     )
+    if parameters.scan != "checkerboard":
+        labyrinth_pass(*arguments, counts)
+        return counts
+    height = tones.shape[0]
+    bands = np.linspace(0, height, min(workers, max(1, height // 2)) + 1).astype(int)
+    band_counts = np.zeros((len(bands) - 1, len(DIAGNOSTIC_FIELDS)), dtype=np.int64)
+    for colour in range(4):  # the pixels of one colour are independent of each other
+        if len(bands) == 2:
+            labyrinth_pass(*arguments, band_counts[0], colour, 0, height)
+            continue
+        with ThreadPoolExecutor(len(bands) - 1) as pool:
+            for future in [
+                pool.submit(labyrinth_pass, *arguments, band_counts[k], colour, start, stop)
+                for k, (start, stop) in enumerate(zip(bands[:-1], bands[1:]))
+            ]:
+                future.result()
+    counts += band_counts.sum(axis=0)
     return counts
 
 

@@ -26,7 +26,7 @@ VARIANCE_RATIOS = ("sqrt(V/N)/M", "sqrt(V)/M")
 VARIANCE_ACTIONS = ("leave", "push_in_range", "push_full_scale")
 CONDITION_ORDERS = ("mean_first", "variance_first")
 ON_EXHAUSTED = ("keep", "last_draw")
-SCANS = ("raster", "serpentine")
+SCANS = ("raster", "serpentine", "checkerboard")
 
 #: What a pass did with each pixel; the kernel counts them in this order.
 DIAGNOSTIC_FIELDS = (
@@ -81,9 +81,13 @@ class LabyrinthParameters:
     include_centre : bool
         Whether the pixel itself joins its M and V (Eq. 1 sums over the
         neighbours only).
-    scan : {"raster", "serpentine"}
+    scan : {"raster", "serpentine", "checkerboard"}
         Order of the in-place scan from the top-left corner: every row left
-        to right, or odd rows right to left.
+        to right, or odd rows right to left, or (not the paper's order) the
+        four checkerboard colours of (y mod 2, x mod 2) one after the other,
+        each in raster order. No two pixels of a colour are neighbours, so
+        a colour can be split among threads: one large plane then uses
+        every core, with the same result for any number of threads.
     """
 
     mean_threshold: float
