@@ -98,16 +98,15 @@ def _interior_sum(plane, y, x):
 
 
 @njit(inline="always")
-def _gather_interior(plane, y, x, neighbours):
-    """Copy the 8 neighbours of an interior pixel, row-major, into ``neighbours``."""
-    neighbours[0] = plane[y - 1, x - 1]
-    neighbours[1] = plane[y - 1, x]
-    neighbours[2] = plane[y - 1, x + 1]
-    neighbours[3] = plane[y, x - 1]
-    neighbours[4] = plane[y, x + 1]
-    neighbours[5] = plane[y + 1, x - 1]
-    neighbours[6] = plane[y + 1, x]
-    neighbours[7] = plane[y + 1, x + 1]
+def _interior_squares(plane, y, x, mean):
+    """Sum of squared deviations from ``mean`` of the 8 neighbours, row-major."""
+    total = 0.0
+    for dy in range(-1, 2):
+        for dx in range(-1, 2):
+            if dy != 0 or dx != 0:
+                deviation = np.float64(plane[y + dy, x + dx]) - mean
+                total += deviation * deviation
+    return total
 
 
 @njit(cache=True, nogil=True)
@@ -176,7 +175,7 @@ def labyrinth_pass(
     """
     height, width = plane.shape
     key = stream_key(seed, plane_index, pass_index)
-    neighbours = np.empty(9, dtype=np.float64)
+    neighbours = np.empty(8, dtype=np.float64)
     n_ranges = tone_low.shape[0]
     fast = not has_nonfinite
     if row_stop < 0:
@@ -200,9 +199,9 @@ def labyrinth_pass(
                 continue
 
             # Eq. 1: the 8 nearest and next-nearest neighbours, summed in
-            # row-major order. Interior pixels of an all-finite plane skip the
-            # buffer (the common case, and the speed-critical one); their
-            # neighbours are gathered only if Eq. 4 needs the variance.
+            # row-major order. Interior pixels of an all-finite plane read
+            # them straight from the plane (the common, speed-critical case);
+            # the others collect the neighbours that count in a buffer.
             interior = interior_row and 0 < x < width - 1
             if interior:
                 count = 8
@@ -244,13 +243,14 @@ def labyrinth_pass(
 
             # Eq. 4: the variance condition.
             if interior:
-                _gather_interior(plane, y, x, neighbours)
+                squares = _interior_squares(plane, y, x, mean)
+            else:
+                squares = 0.0
+                for k in range(count):
+                    deviation = neighbours[k] - mean
+                    squares += deviation * deviation
             if include_centre:
-                neighbours[count] = g
-            squares = 0.0
-            for k in range(n):
-                deviation = neighbours[k] - mean
-                squares += deviation * deviation
+                squares += (g - mean) * (g - mean)
             variance = squares / n
             if variance_ratio == 0:
                 spread = math.sqrt(variance / n)
