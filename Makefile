@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test bench study gallery install install-test system-packages clean
+.PHONY: demo test bench study gallery screenshot install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
@@ -22,6 +22,9 @@ study: $(VENV)/.installed
 
 gallery: $(VENV)/.installed-docs
 	$(PY) benchmarks/gallery.py
+
+screenshot: $(VENV)/.installed-test system-packages
+	xvfb-run -a $(PY) docs/make_screenshot.py
 
 install: $(VENV)/.installed
 install-test: $(VENV)/.installed-test
