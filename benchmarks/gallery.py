@@ -138,45 +138,44 @@ def figure_4_passes(out: Path) -> None:
 def figure_5_branches(out: Path) -> None:
     from skimage import data, transform, util
 
-    from napari_labyrinth import labyrinth
-
     retina = data.retina()[..., 1]  # vessels contrast best in the green channel
     retina = util.img_as_ubyte(transform.resize(retina, (480, 480), anti_aliasing=True))
     crop = retina[100:420, 80:400]
     rocket = _gray(data.rocket())[60:380, 120:440]
-    rows = []
-    for name, image in (("retina", crop), ("rocket", rocket)):
-        tiled = labyrinth(image)
-        _describe(name, image, tiled)
-        rows.append([image, tiled])
-    grid = labelled_grid(
-        rows,
-        column_labels=["input", 'preset "labyrinth"'],
-        title="Fig. 5: main branches enhanced, small details suppressed",
+    _input_and_labyrinth(
+        out / "fig5-branches.png",
+        {"retina": crop, "rocket": rocket},
+        "Fig. 5: main branches enhanced, small details suppressed",
     )
-    _save(out / "fig5-branches.png", grid)
 
 
 def figure_liquid_crystals(out: Path) -> None:
     from skimage import util
 
-    from napari_labyrinth import labyrinth, samples
+    from napari_labyrinth import samples
+
+    textures = {
+        "schlieren": samples.nematic_schlieren((320, 320), seed=0),
+        "fingerprint": samples.cholesteric_fingerprint((320, 320), seed=0, pitch=24),
+    }
+    _input_and_labyrinth(
+        out / "liquid-crystals.png",
+        {name: util.img_as_ubyte(image) for name, image in textures.items()},
+        "Liquid-crystal textures: nematic Schlieren and cholesteric fingerprint",
+    )
+
+
+def _input_and_labyrinth(path: Path, images: dict[str, np.ndarray], title: str) -> None:
+    """One row per image: the input and its rendering with the default preset."""
+    from napari_labyrinth import labyrinth
 
     rows = []
-    for name, image in (
-        ("schlieren", samples.nematic_schlieren((320, 320), seed=0)),
-        ("fingerprint", samples.cholesteric_fingerprint((320, 320), seed=0, pitch=24)),
-    ):
-        image = util.img_as_ubyte(image)
+    for name, image in images.items():
         tiled = labyrinth(image)
         _describe(name, image, tiled)
         rows.append([image, tiled])
-    grid = labelled_grid(
-        rows,
-        column_labels=["input", 'preset "labyrinth"'],
-        title="Liquid-crystal textures: nematic Schlieren and cholesteric fingerprint",
-    )
-    _save(out / "liquid-crystals.png", grid)
+    grid = labelled_grid(rows, column_labels=["input", 'preset "labyrinth"'], title=title)
+    _save(path, grid)
 
 
 def main(argv=None):
