@@ -1,18 +1,29 @@
 """Reading and writing image files for the command line.
 
 TIFF files go through tifffile (any dtype, any number of dimensions); PNG,
-JPEG and BMP through imageio's pillow plugin. Writes are atomic: the data go
-to a temporary file in the destination directory, which then takes the
+JPEG and BMP through imageio's pillow plugin; zarr stores (``.zarr``
+directories) through zarr and dask. Writes are atomic: the data go to a
+temporary file (or directory) beside the destination, which then takes the
 destination's name in one step, so a reader never sees a half-written file
 and an error leaves nothing behind.
+
+Images larger than memory stay lazy (dask arrays, see ``open_image``) and
+are written block by block (``write_array``): a zarr store with one chunk
+per plane, or a TIFF file whose planes are written as they are computed.
 """
 
 from __future__ import annotations
 
+import ctypes
 import errno
+import functools
 import os
 import secrets
+import shutil
+import threading
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -24,7 +35,20 @@ FORMATS = {
     ".jpg": "JPEG",
     ".jpeg": "JPEG",
     ".bmp": "BMP",
+    ".zarr": "ZARR",
 }
+
+#: A TIFF file holding more than one plane is read lazily (a dask array read
+#: plane by plane) when its pixels take more bytes than this; smaller files
+#: are read into memory at once.
+LAZY_TIFF_BYTES = 1 << 30
+
+#: Upper bound on the bytes of the block a lazily read image is cut into:
+#: whole planes, as many as the store's chunks hold along the stack axes
+#: (so each chunk is read once), but no more than fit in this.
+BLOCK_BYTES = 256 << 20
+
+ProgressCallback = Callable[[int, int], Any]
 
 
 class ImageFileError(ValueError):
@@ -40,7 +64,10 @@ class ImageFileError(ValueError):
 
 
 def image_format(path: str | os.PathLike) -> str:
-    """Format name (``"TIFF"``, ``"PNG"``, ``"JPEG"`` or ``"BMP"``) of a path's suffix.
+    """Format name (``"TIFF"``, ``"PNG"``, ``"JPEG"``, ``"BMP"`` or ``"ZARR"``) of a path.
+
+    The suffix decides, except that a path inside a ``.zarr`` directory
+    (``stack.zarr/0``: an array of a zarr group) is ``"ZARR"``.
 
     Raises
     ------
@@ -48,6 +75,8 @@ def image_format(path: str | os.PathLike) -> str:
         (a ValueError) if the suffix is not one of ``FORMATS``.
     """
     suffix = Path(path).suffix.lower()
+    if suffix not in FORMATS and zarr_root(path) is not None:
+        return "ZARR"
     try:
         return FORMATS[suffix]
     except KeyError:
@@ -63,10 +92,11 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     ----------
     path : str or path-like
         A ``.tif``/``.tiff`` file (read with tifffile: every page of the
-        first series, any dtype) or a ``.png``, ``.jpg``/``.jpeg`` or
+        first series, any dtype), a ``.png``, ``.jpg``/``.jpeg`` or
         ``.bmp`` file (read with imageio's pillow plugin: grey images are
         2-D, colour images ``(rows, columns, 3 or 4)``; palette images are
-        expanded to RGB(A)).
+        expanded to RGB(A)) or a zarr store (see :func:`open_image`), read
+        whole.
 
     Returns
     -------
@@ -83,6 +113,10 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     """
     path = Path(path)
     kind = image_format(path)
+    if kind == "ZARR":
+        array = _open_zarr_array(path)
+        image = np.asarray(array[...])
+        return _native(image)
     if not path.exists():
         raise FileNotFoundError(errno.ENOENT, "no such file", str(path))
     if path.is_dir():
@@ -184,12 +218,12 @@ def _reason(exc: BaseException) -> str:
     return " ".join(text.split())
 
 
-def _check_storable(path: Path, kind: str, array: np.ndarray) -> None:
+def _check_storable(path: Path, kind: str, array: Any) -> None:
     if array.size == 0:
         raise ImageFileError(path, f"cannot write an empty image (shape {array.shape})")
-    if kind == "TIFF":
+    if kind in ("TIFF", "ZARR"):
         if array.dtype.kind not in "biuf" and array.dtype.kind != "c":
-            raise ImageFileError(path, f"TIFF cannot store {array.dtype} data")
+            raise ImageFileError(path, f"{kind} cannot store {array.dtype} data")
         return
     grey = array.ndim == 2
     channels = array.shape[-1] if array.ndim == 3 else None
@@ -249,3 +283,520 @@ def _link_no_clobber(temporary: Path, path: Path) -> None:
         os.replace(temporary, path)
         return
     os.unlink(temporary)
+
+
+# -- lazy images: zarr stores and large TIFF files ------------------------------------------------
+
+
+def zarr_root(path: str | os.PathLike) -> tuple[Path, str] | None:
+    """``(store, component)`` of a path in a ``.zarr`` directory, or None.
+
+    ``a.zarr`` gives ``(a.zarr, "")``, ``a.zarr/0`` and ``a.zarr/0/`` give
+    ``(a.zarr, "0")``.
+    """
+    parts = Path(path).parts
+    for index in range(len(parts) - 1, -1, -1):
+        name = parts[index]
+        if name.lower().endswith(".zarr") and len(name) > len(".zarr"):
+            return Path(*parts[: index + 1]), "/".join(parts[index + 1 :])
+    return None
+
+
+def open_image(
+    path: str | os.PathLike, *, lazy: bool | None = None, channel_axis: int | None = None
+):
+    """Open an image file, into memory or lazily as a dask array.
+
+    Parameters
+    ----------
+    path : str or path-like
+        An image file (see :func:`read_image`) or a zarr store: a ``.zarr``
+        directory holding an array, an OME-Zarr image (its full-resolution
+        level is read) or a group of one array; ``store.zarr/name`` names an
+        array of a group.
+    lazy : bool, optional
+        None (default): zarr stores are opened lazily, TIFF files lazily when
+        they hold more than one plane and more than ``LAZY_TIFF_BYTES`` bytes
+        of pixels, everything else is read into memory. True: zarr stores
+        and TIFF files lazily. False: everything into memory. PNG, JPEG and
+        BMP files (one image each) are always read into memory.
+    channel_axis : int, optional
+        The colour axis, kept whole in each block of a lazy array.
+
+    Returns
+    -------
+    image : ndarray or dask array
+        A dask array is cut into blocks of whole planes (the two spatial
+        axes and the colour axis whole), as many planes as a chunk of the
+        store holds along the stack axes (so each chunk is read once) up to
+        ``BLOCK_BYTES``. Nothing is read until it is computed, and then only
+        block by block: files are opened by path in each process that
+        computes (a ``dask.distributed`` worker must see the same path).
+
+    Raises
+    ------
+    FileNotFoundError
+        If the file or store does not exist.
+    ImageFileError
+        (a ValueError) naming the file, if it cannot be read.
+    """
+    path = Path(path)
+    kind = image_format(path)
+    if kind == "ZARR":
+        array = _open_zarr_array(path)
+        if lazy is False:
+            return _native(np.asarray(array[...]))
+        import dask.array as da
+
+        chunks = _block_chunks(array.shape, array.chunks, array.dtype, channel_axis)
+        return _native(da.from_zarr(array, chunks=chunks))
+    if kind != "TIFF" or lazy is False:
+        return read_image(path)
+    if not path.exists():
+        raise FileNotFoundError(errno.ENOENT, "no such file", str(path))
+    if path.is_dir():
+        raise ImageFileError(path, "is a directory, not an image file")
+    try:
+        shape, dtype, store_chunks = _tiff_layout(path)
+    except Exception as exc:  # tifffile raises many types for a bad file
+        raise ImageFileError(path, f"cannot read TIFF file: {_reason(exc)}") from exc
+    if 0 in shape:
+        raise ImageFileError(path, f"the file holds no pixels (shape {shape})")
+    planes = int(np.prod(shape[:-2]))
+    if lazy is None and not (planes > 1 and np.prod(shape) * dtype.itemsize > LAZY_TIFF_BYTES):
+        return read_image(path)
+    import dask.array as da
+
+    source = _LazyTiff(path, shape, dtype)
+    chunks = _block_chunks(shape, store_chunks, dtype, channel_axis)
+    meta = np.empty((0,) * len(shape), dtype=dtype)
+    return _native(da.from_array(source, chunks=chunks, lock=False, meta=meta))
+
+
+def _native(image):
+    """The image with its dtype in the machine's byte order (the API's dtypes are native)."""
+    if image.dtype.isnative:
+        return image
+    return image.astype(image.dtype.newbyteorder("="))
+
+
+def _block_chunks(
+    shape: tuple[int, ...],
+    store_chunks: tuple[int, ...],
+    dtype: np.dtype,
+    channel_axis: int | None,
+) -> tuple[int, ...]:
+    """dask chunks of whole planes, following the store's chunks along the stack axes."""
+    ndim = len(shape)
+    whole = set()
+    if ndim >= 2:
+        axes = [
+            axis for axis in range(ndim) if channel_axis is None or axis != channel_axis % ndim
+        ]
+        whole = set(axes[-2:])
+        if channel_axis is not None and ndim >= 3:
+            whole.add(channel_axis % ndim)
+    plane_bytes = int(np.prod([shape[axis] for axis in whole])) * np.dtype(dtype).itemsize
+    room = max(1, BLOCK_BYTES // max(plane_bytes, 1))
+    chunks = list(shape)
+    for axis in reversed(range(ndim)):
+        if axis in whole:
+            continue
+        size = max(1, min(int(store_chunks[axis]), shape[axis], room))
+        chunks[axis] = size
+        room = max(1, room // size)
+    return tuple(chunks)
+
+
+def _open_zarr_array(path: Path):
+    """The zarr array at ``path``: a store, an OME-Zarr image, a group of one array."""
+    root, component = zarr_root(path)
+    if not root.exists():
+        raise FileNotFoundError(errno.ENOENT, "no such file or directory", str(root))
+    try:
+        import zarr
+    except ImportError:
+        raise ImageFileError(
+            path, "reading zarr needs zarr and dask: pip install 'napari-labyrinth[dask]'"
+        ) from None
+    try:
+        node = zarr.open(store=os.path.abspath(root), mode="r", path=component or None)
+    except Exception as exc:  # zarr raises many types for what is not a store
+        raise ImageFileError(path, f"cannot read zarr store: {_reason(exc)}") from exc
+    if isinstance(node, zarr.Group):
+        node = _array_of_group(path, node)
+    if node.size == 0:
+        raise ImageFileError(path, f"the store holds no pixels (shape {node.shape})")
+    return node
+
+
+def _array_of_group(path: Path, group):
+    attributes = dict(group.attrs)
+    multiscales = attributes.get("multiscales") or attributes.get("ome", {}).get("multiscales")
+    if multiscales:
+        try:
+            return group[multiscales[0]["datasets"][0]["path"]]
+        except (KeyError, IndexError, TypeError) as exc:
+            raise ImageFileError(path, f"bad OME-Zarr multiscales metadata: {exc}") from None
+    arrays = sorted(group.array_keys())
+    if len(arrays) == 1:
+        return group[arrays[0]]
+    if not arrays:
+        raise ImageFileError(path, "is a zarr group without arrays")
+    shown = ", ".join(arrays[:5]) + (", ..." if len(arrays) > 5 else "")
+    raise ImageFileError(
+        path, f"is a zarr group of {len(arrays)} arrays ({shown}); name one: {path / arrays[0]}"
+    )
+
+
+def _tiff_layout(path: Path) -> tuple[tuple[int, ...], np.dtype, tuple[int, ...]]:
+    """Shape, dtype and chunks of the first series of a TIFF file, without reading pixels."""
+    import tifffile
+    import zarr
+
+    with tifffile.imread(path, aszarr=True, series=0, level=0) as store:
+        array = zarr.open(store, mode="r")
+        return tuple(array.shape), np.dtype(array.dtype), tuple(array.chunks)
+
+
+class _LazyTiff:
+    """The first series of a TIFF file, read on demand (opened once per process).
+
+    Pickles as its path, so that ``dask.distributed`` workers open the file
+    themselves.
+    """
+
+    def __init__(self, path: Path, shape: tuple[int, ...], dtype: np.dtype):
+        self.path = os.path.abspath(path)
+        self.shape = tuple(shape)
+        self.dtype = np.dtype(dtype)
+        stat = os.stat(self.path)
+        self.stamp = (stat.st_mtime_ns, stat.st_size)
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    def __getitem__(self, key):
+        return np.asarray(_cached_tiff(self.path, self.stamp)[key])
+
+    def __dask_tokenize__(self):
+        return ("napari-labyrinth-tiff", self.path, self.stamp, self.shape, str(self.dtype))
+
+
+@functools.lru_cache(maxsize=8)
+def _cached_tiff(path: str, stamp: tuple[int, int]):
+    import tifffile
+    import zarr
+
+    return zarr.open(tifffile.imread(path, aszarr=True, series=0, level=0), mode="r")
+
+
+@functools.lru_cache(maxsize=8)
+def _cached_zarr_for_writing(path: str):
+    import zarr
+
+    return zarr.open_array(store=path, mode="r+")
+
+
+def release_files() -> None:
+    """Forget the files opened for lazy reading and writing in this process."""
+    _cached_tiff.cache_clear()
+    _cached_zarr_for_writing.cache_clear()
+
+
+def write_array(
+    path: str | os.PathLike,
+    array,
+    *,
+    overwrite: bool = False,
+    plane_axes: Sequence[int] = (-2, -1),
+    progress: ProgressCallback | None = None,
+) -> Path:
+    """Write an in-memory or lazy (dask) array to an image file or zarr store, atomically.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Destination: a ``.zarr`` directory or an image file (see
+        :func:`write_image`).
+    array : ndarray or dask array
+        The image. A dask array is computed block by block and never held
+        whole: into a zarr store by the tasks themselves (by the workers of
+        a ``dask.distributed`` cluster, which must see ``path``), into a
+        TIFF file plane by plane as the blocks arrive; a PNG, JPEG or BMP
+        file holds one image and is computed at once.
+    overwrite : bool, optional
+        Replace an existing file or zarr store (never a directory that is
+        not a zarr store). Without it an existing one is left as it is.
+    plane_axes : sequence of int, optional
+        The axes of one plane (the two spatial axes, and the colour axis if
+        any): a zarr store gets one chunk per plane.
+    progress : callable, optional
+        ``progress(planes_done, planes_total)`` as planes are written.
+
+    Returns
+    -------
+    path : Path
+
+    Raises
+    ------
+    FileExistsError
+        If ``path`` exists and ``overwrite`` is False.
+    ImageFileError
+        (a ValueError) naming the file, for an array the format cannot store.
+    OSError
+        If writing fails; nothing is left behind.
+
+    Notes
+    -----
+    A zarr store is written to a hidden directory beside ``path`` and
+    renamed to it (without replacing anything that appeared meanwhile); with
+    ``overwrite`` the old store is moved aside, the new one renamed into
+    place and the old one removed. A lazy TIFF file is created with its
+    final size (uncompressed, planes contiguous; BigTIFF when it needs
+    more than 4 GB) and each block's planes are written at their place.
+    """
+    path = Path(path)
+    kind = image_format(path)
+    if kind == "ZARR":
+        return _write_zarr(
+            path, array, overwrite=overwrite, plane_axes=plane_axes, progress=progress
+        )
+    from ._chunked import is_lazy
+
+    if not is_lazy(array):
+        write_image(path, array, overwrite=overwrite)
+    elif kind == "TIFF":
+        _write_tiff_lazily(
+            path, array, overwrite=overwrite, plane_axes=plane_axes, progress=progress
+        )
+    else:
+        from ._chunked import computing
+
+        _check_writable(path, kind, array, overwrite)
+        with computing():
+            computed = np.asarray(array.compute())
+        write_image(path, computed, overwrite=overwrite)
+    if progress is not None:
+        total = _planes(array.shape, plane_axes)
+        progress(total, total)
+    return path
+
+
+def _planes(shape: tuple[int, ...], plane_axes: Sequence[int]) -> int:
+    axes = {axis % len(shape) for axis in plane_axes}
+    return int(np.prod([size for axis, size in enumerate(shape) if axis not in axes]))
+
+
+def _check_writable(path: Path, kind: str, array: Any, overwrite: bool) -> None:
+    _check_storable(path, kind, array)
+    if path.is_dir():
+        raise ImageFileError(path, "is a directory")
+    if not overwrite and os.path.lexists(path):
+        raise FileExistsError(f"{path} already exists (use overwrite to replace it)")
+
+
+def _write_tiff_lazily(path: Path, array, *, overwrite, plane_axes, progress) -> None:
+    import tifffile
+
+    from ._chunked import run_blocks
+
+    _check_writable(path, "TIFF", array, overwrite)
+    array = _native(array)
+    temporary, handle = _create_temporary(path.parent, path.name)
+    handle.close()
+    try:
+        rgb = array.ndim >= 3 and array.shape[-1] in (3, 4) and array.dtype.kind in "uif"
+        offset, _ = tifffile.imwrite(
+            temporary,
+            shape=array.shape,
+            dtype=array.dtype,
+            photometric="rgb" if rgb else "minisblack",
+            returnoffset=True,
+        )
+        with tifffile.TiffFile(temporary) as created:  # the planes must be contiguous
+            if created.series[0].dataoffset != offset:
+                raise ImageFileError(path, "tifffile did not lay the planes out contiguously")
+        fd = os.open(temporary, os.O_RDWR | getattr(os, "O_BINARY", 0))
+        try:
+            write = functools.partial(
+                _write_contiguous, fd, offset, tuple(array.shape), array.dtype.itemsize
+            )
+            run_blocks(array, write, plane_axes=plane_axes, on_client=True, progress=progress)
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        if overwrite:
+            os.replace(temporary, path)
+        else:
+            _link_no_clobber(temporary, path)
+    except BaseException:
+        try:
+            os.unlink(temporary)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def _write_contiguous(fd, offset, shape, itemsize, block, location) -> None:
+    """Write a block of a C-ordered array stored from ``offset`` of the file ``fd``."""
+    block = np.ascontiguousarray(block)
+    ndim = len(shape)
+    # the block is contiguous in the file from the first axis on which it is
+    # cut, when it spans every axis after that one
+    split = ndim
+    while split > 0 and block.shape[split - 1] == shape[split - 1]:
+        split -= 1
+    split = max(split - 1, 0)
+    strides = np.cumprod((1,) + tuple(shape[:0:-1]))[::-1]
+    starts = [start for start, _ in location]
+    for index in np.ndindex(block.shape[:split]):
+        first = sum(
+            (starts[axis] + (index[axis] if axis < split else 0)) * int(strides[axis])
+            for axis in range(ndim)
+        )
+        _pwrite(fd, memoryview(block[index]).cast("B"), offset + first * itemsize)
+
+
+def _pwrite(fd: int, data: memoryview, position: int) -> None:
+    while data:
+        if hasattr(os, "pwrite"):
+            written = os.pwrite(fd, data, position)
+        else:  # Windows: no pwrite; seek and write under a lock
+            with _SEEK_LOCK:
+                os.lseek(fd, position, os.SEEK_SET)
+                written = os.write(fd, data)
+        data = data[written:]
+        position += written
+
+
+_SEEK_LOCK = threading.Lock()
+
+
+def _write_zarr(path: Path, array, *, overwrite, plane_axes, progress) -> Path:
+    from ._chunked import is_lazy, run_blocks
+
+    if zarr_root(path) != (path, ""):
+        raise ImageFileError(path, "a zarr output is a path ending in .zarr, not inside one")
+    _check_storable(path, "ZARR", array)
+    if os.path.lexists(path):
+        if not overwrite:
+            raise FileExistsError(f"{path} already exists (use overwrite to replace it)")
+        if not _is_zarr_store(path):
+            raise ImageFileError(path, "exists and is not a zarr store; not replacing it")
+    try:
+        import zarr
+    except ImportError:
+        raise ImageFileError(
+            path, "writing zarr needs zarr and dask: pip install 'napari-labyrinth[dask]'"
+        ) from None
+    axes = {axis % array.ndim for axis in plane_axes}
+    chunks = tuple(size if axis in axes else 1 for axis, size in enumerate(array.shape))
+    array = _native(array)
+    temporary = _create_temporary_directory(path.parent, path.name)
+    try:
+        store = os.path.abspath(temporary)
+        target = zarr.create_array(
+            store=store, shape=array.shape, chunks=chunks, dtype=array.dtype, fill_value=0
+        )
+        if is_lazy(array):
+            array = array.rechunk({axis: -1 for axis in axes})  # no-op for rendered arrays
+            write = functools.partial(_write_zarr_block, store)
+            run_blocks(array, write, plane_axes=tuple(axes), progress=progress)
+        else:
+            target[...] = np.asarray(array)
+            if progress is not None:
+                total = _planes(array.shape, plane_axes)
+                progress(total, total)
+        _publish_directory(temporary, path, overwrite=overwrite)
+    except BaseException:
+        shutil.rmtree(temporary, ignore_errors=True)
+        raise
+    finally:
+        _cached_zarr_for_writing.cache_clear()
+    return path
+
+
+def _write_zarr_block(store: str, block, location) -> None:
+    if not os.path.isfile(os.path.join(store, "zarr.json")):  # abandoned after a failure
+        raise FileNotFoundError(errno.ENOENT, "the output being written was removed", store)
+    target = _cached_zarr_for_writing(store)
+    target[tuple(slice(start, stop) for start, stop in location)] = block
+
+
+def _is_zarr_store(path: Path) -> bool:
+    return path.is_dir() and any(
+        (path / name).is_file() for name in ("zarr.json", ".zarray", ".zgroup")
+    )
+
+
+def _create_temporary_directory(directory: Path, name: str) -> Path:
+    """A new hidden directory beside the destination."""
+    while True:
+        temporary = directory / f".{name}.{secrets.token_hex(4)}.tmp"
+        try:
+            os.mkdir(temporary)
+        except FileExistsError:
+            continue
+        return temporary
+
+
+def _publish_directory(temporary: Path, path: Path, *, overwrite: bool) -> None:
+    """Give the directory ``temporary`` the name ``path``, replacing it only with ``overwrite``."""
+    if not overwrite or not os.path.lexists(path):
+        _rename_no_replace(temporary, path)
+        return
+    old = path.parent / f".{path.name}.{secrets.token_hex(4)}.old"
+    os.rename(path, old)
+    try:
+        os.rename(temporary, path)
+    except BaseException:
+        os.rename(old, path)
+        raise
+    if old.is_dir() and not old.is_symlink():
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.unlink(old)
+
+
+def _rename_no_replace(source: Path, destination: Path) -> None:
+    """Rename ``source`` to ``destination`` unless that exists (atomically where supported)."""
+    exists = FileExistsError(f"{destination} already exists (use overwrite to replace it)")
+    renameat2 = _renameat2()
+    if renameat2 is not None:
+        at_fdcwd, noreplace = -100, 1
+        names = os.fsencode(source), os.fsencode(destination)
+        if renameat2(at_fdcwd, names[0], at_fdcwd, names[1], noreplace) == 0:
+            return
+        code = ctypes.get_errno()
+        if code == errno.EEXIST:
+            raise exists
+        if code not in (errno.EINVAL, errno.ENOSYS, getattr(errno, "ENOTSUP", errno.EINVAL)):
+            raise OSError(code, os.strerror(code), str(destination))
+    if os.path.lexists(destination):  # no renameat2 here: check, then rename (a small window)
+        raise exists
+    try:
+        os.rename(source, destination)
+    except OSError as exc:
+        if exc.errno in (errno.EEXIST, errno.ENOTEMPTY):
+            raise exists from None
+        raise
+
+
+@functools.lru_cache(maxsize=1)
+def _renameat2():
+    """libc's ``renameat2`` (Linux), or None."""
+    try:
+        function = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError, TypeError):
+        return None
+    function.argtypes = [
+        ctypes.c_int,
+        ctypes.c_char_p,
+        ctypes.c_int,
+        ctypes.c_char_p,
+        ctypes.c_uint,
+    ]
+    function.restype = ctypes.c_int
+    return function

@@ -6,15 +6,22 @@
     napari-labyrinth demo [-o DIR] [--overwrite]
     napari-labyrinth --version
 
-Heavy modules (numba, tifffile, imageio, tqdm, scikit-image) are imported
-only when a command needs them, so ``--help`` answers at once. Nothing here
-imports napari or Qt: the command runs without a display.
+Heavy modules (numba, tifffile, imageio, tqdm, scikit-image, dask) are
+imported only when a command needs them, so ``--help`` answers at once.
+Nothing here imports napari or Qt: the command runs without a display.
+
+zarr stores and large TIFF stacks are rendered lazily, block by block (see
+``_io.open_image`` and ``_io.write_array``), locally or on a
+``dask.distributed`` cluster (``--scheduler``).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
+import functools
+import logging
 import math
 import os
 import sys
@@ -39,6 +46,9 @@ SEPARATOR_WIDTH = 4
 #: Formats read with imageio whose 3-D images are colour: channel_axis=-1 by default.
 _COLOUR_FORMATS = ("PNG", "JPEG", "BMP")
 
+#: Seconds to wait for a dask scheduler given by --scheduler.
+SCHEDULER_TIMEOUT = 10
+
 
 class _UsageError(Exception):
     """A bad combination of arguments: one line on stderr, exit code 2."""
@@ -46,6 +56,10 @@ class _UsageError(Exception):
 
 class _Refused(Exception):
     """Files that would be overwritten without --overwrite: exit code 1."""
+
+
+class _Failed(Exception):
+    """Nothing could be rendered (e.g. no dask scheduler): one line, exit code 1."""
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -79,6 +93,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         for line in exc.args:
             _error(line)
         return EXIT_FAILED
+    except _Failed as exc:
+        _error(str(exc))
+        return EXIT_FAILED
     except KeyboardInterrupt:
         _error("interrupted")
         return EXIT_INTERRUPTED
@@ -103,21 +120,28 @@ def _build_parser() -> argparse.ArgumentParser:
         "render",
         help="render image files",
         description=(
-            "Render image files (TIFF, PNG, JPEG, BMP). Parameters not given come from "
-            f"the preset (default {DEFAULT_PRESET!r}). The result keeps the input's "
-            "shape and dtype; stacks and sweeps are written as TIFF."
+            "Render image files (TIFF, PNG, JPEG, BMP) and zarr stores. Parameters not "
+            f"given come from the preset (default {DEFAULT_PRESET!r}). The result keeps "
+            "the input's shape and dtype; stacks and sweeps are written as TIFF or zarr. "
+            "zarr stores and TIFF stacks over 1 GiB are rendered block by block, in "
+            "bounded memory."
         ),
     )
     render.set_defaults(command="render", run=_render_command)
-    render.add_argument("inputs", nargs="+", metavar="INPUT", help="image file(s) to render")
+    render.add_argument(
+        "inputs",
+        nargs="+",
+        metavar="INPUT",
+        help="image file(s) or .zarr store(s) (store.zarr/NAME: an array of a group)",
+    )
     render.add_argument(
         "-o",
         "--output",
         required=True,
         metavar="OUTPUT",
         help=(
-            "output file (one input; format from its suffix) or directory (created if "
-            "missing), where each result is named <stem>_labyrinth<suffix>"
+            "output file or .zarr store (one input; format from its suffix) or directory "
+            "(created if missing), where each result is named <stem>_labyrinth<suffix>"
         ),
     )
     render.add_argument(
@@ -143,7 +167,7 @@ def _build_parser() -> argparse.ArgumentParser:
         metavar=("LOW", "HIGH"),
         help=(
             "values mapped to tones 0 and 255 (default: 0 255 for uint8, else the 0.5th "
-            "and 99.5th percentiles)"
+            "and 99.5th percentiles, which takes extra reads of a lazily rendered input)"
         ),
     )
     render.add_argument(
@@ -181,6 +205,17 @@ def _build_parser() -> argparse.ArgumentParser:
         ),
     )
     render.add_argument(
+        "--scheduler",
+        type=_scheduler_address,
+        metavar="ADDRESS",
+        help=(
+            "render on a dask.distributed cluster: the scheduler's address "
+            "(tcp://host:8786), its scheduler file, or local:N to start N worker "
+            "processes on this machine; workers need napari-labyrinth and must see the "
+            "input and .zarr output paths"
+        ),
+    )
+    render.add_argument(
         "--overwrite", action="store_true", help="replace existing files, inputs included"
     )
 
@@ -214,6 +249,25 @@ def _seed(text: str) -> int:
     if not 0 <= value < 2**64:
         raise argparse.ArgumentTypeError(f"must be between 0 and 2**64 - 1, got {value}")
     return value
+
+
+def _scheduler_address(text: str) -> str | int:
+    """A scheduler address, or the number of local workers of ``local[:N]``."""
+    text = text.strip()
+    name, sep, count = text.partition(":")
+    if name != "local":
+        if not text:
+            raise argparse.ArgumentTypeError("empty address")
+        return text
+    if not sep:
+        return os.cpu_count() or 1
+    try:
+        workers = int(count)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected local:N, got {text!r}") from None
+    if not 1 <= workers <= 1024:
+        raise argparse.ArgumentTypeError(f"local:N needs 1 <= N <= 1024, got {workers}")
+    return workers
 
 
 def _sweep(text: str) -> tuple[str, list[Any]]:
@@ -262,8 +316,57 @@ def _render_command(args: argparse.Namespace) -> int:
     _check_overwrites(jobs, overwrite=args.overwrite)
     if directory is not None:
         _make_directory(directory)
+    with _scheduler(args.scheduler):
+        return _render_jobs(jobs, args, options)
 
+
+@contextlib.contextmanager
+def _scheduler(address: str | int | None):
+    """Make a ``dask.distributed`` client the scheduler of dask for the run (None: local)."""
+    if address is None:
+        yield None
+        return
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise _UsageError(
+            "--scheduler needs dask.distributed: pip install 'napari-labyrinth[dask]'"
+        ) from None
+    cluster = None
+    try:
+        if isinstance(address, int):
+            cluster = LocalCluster(
+                n_workers=address,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                silence_logs=logging.CRITICAL,  # a failed block is reported in one line
+                # no dashboard; the scheduler's HTTP endpoints on any free loopback port
+                scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
+            )
+            client = Client(cluster)
+        elif os.path.isfile(address):
+            client = Client(scheduler_file=address, timeout=SCHEDULER_TIMEOUT)
+        else:
+            client = Client(address, timeout=SCHEDULER_TIMEOUT)
+    except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address, ...
+        if cluster is not None:
+            cluster.close()
+        where = f"{address} local workers" if isinstance(address, int) else address
+        raise _Failed(f"--scheduler: cannot connect to {where}: {_describe(exc, '')}") from exc
+    try:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, Any]) -> int:
     from tqdm import tqdm
+
+    from ._chunked import ComputeError
 
     show = _isatty(sys.stderr)
     rendered: list[Path] = []
@@ -281,7 +384,8 @@ def _render_command(args: argparse.Namespace) -> int:
         leave=False,
     )
 
-    def progress(done: int, total: int) -> None:
+    def progress(done: int, total: int, unit: str = "pass") -> None:
+        planes_bar.unit = unit
         planes_bar.total = total
         planes_bar.n = done
         planes_bar.refresh()
@@ -294,7 +398,14 @@ def _render_command(args: argparse.Namespace) -> int:
                 if job.error is not None:
                     raise _FileError(job.error)
                 _render_one(job, args, options, progress if show else None)
-            except (_FileError, OSError, ValueError, TypeError, MemoryError) as exc:
+            except (
+                _FileError,
+                OSError,
+                ValueError,
+                TypeError,
+                MemoryError,
+                ComputeError,
+            ) as exc:
                 failed.append(job.input)
                 tqdm.write(
                     f"{PROG}: error: {job.input}: {_describe(exc, job.input)}", file=sys.stderr
@@ -383,12 +494,15 @@ def _check_sweep(
 
 def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
     """The jobs, and the output directory to create (None when writing one file)."""
-    from ._io import image_format
+    from ._io import image_format, zarr_root
 
     inputs = [Path(p) for p in args.inputs]
     output = Path(args.output)
     variant = "stack" if args.stack else "sweep" if args.sweep is not None else None
-    as_directory = (
+    to_zarr = output.suffix.lower() == ".zarr"
+    if to_zarr and len(inputs) > 1:
+        raise _UsageError(f"{output}: several inputs need an output directory, not a zarr store")
+    as_directory = not to_zarr and (
         len(inputs) > 1
         or output.is_dir()
         or args.output.endswith(("/", os.sep))
@@ -399,10 +513,10 @@ def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
             kind = image_format(output)
         except ValueError as exc:
             raise _UsageError(f"output {_describe(exc, output)}") from None
-        if variant is not None and kind != "TIFF":
+        if variant is not None and kind not in ("TIFF", "ZARR"):
             raise _UsageError(
                 f"--{variant} writes a {variant} of images (more than 2-D); "
-                f"give a .tif output, not {output.name}"
+                f"give a .tif or .zarr output, not {output.name}"
             )
         return [_Job(inputs[0], output)], None
 
@@ -410,22 +524,32 @@ def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
         raise _UsageError(f"{output} is not a directory (several inputs need a directory)")
     jobs = []
     for path in inputs:
-        suffix = path.suffix
+        stem, suffix = path.stem, path.suffix
         try:
             kind = image_format(path)
         except ValueError as exc:
             jobs.append(_Job(path, None, error=_describe(exc, path)))
             continue
-        if variant is not None and kind != "TIFF":
+        if kind == "ZARR":  # store.zarr or store.zarr/array: named after the store
+            store = zarr_root(path)[0]
+            stem, suffix = store.stem, store.suffix
+        elif variant is not None and kind != "TIFF":
             suffix = ".tif"  # a stack or sweep does not fit in a PNG or JPEG
         tail = f"_{variant}" if variant else ""
-        jobs.append(_Job(path, output / f"{path.stem}_labyrinth{tail}{suffix}"))
+        jobs.append(_Job(path, output / f"{stem}_labyrinth{tail}{suffix}"))
     return jobs, output
 
 
 def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
     """Refuse colliding outputs always, and existing files without --overwrite."""
-    inputs = {_key(job.input): job.input for job in jobs}
+    from ._io import zarr_root
+
+    inputs = {}
+    for job in jobs:
+        inputs[_key(job.input)] = job.input
+        store = zarr_root(job.input)
+        if store is not None:  # replacing the store would replace the input
+            inputs.setdefault(_key(store[0]), job.input)
     seen: dict[str, Path] = {}
     refused = []
     for job in jobs:
@@ -437,10 +561,16 @@ def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
                 f"{seen[key]} and {job.input} would both be rendered to {job.output}"
             )
         seen[key] = job.input
-        if key in inputs and key != _key(job.input):
+        own_input = inputs.get(key) == job.input
+        if key in inputs and not own_input:
             raise _UsageError(f"the result of {job.input} would overwrite the input {inputs[key]}")
         if not overwrite and os.path.lexists(job.output):
-            what = "the input file" if key == _key(job.input) else "an existing file"
+            if own_input:
+                what = "the input file"
+            elif job.output.is_dir():
+                what = "an existing directory"
+            else:
+                what = "an existing file"
             refused.append(
                 f"{job.output}: refusing to overwrite {what} (use --overwrite to replace it)"
             )
@@ -449,10 +579,21 @@ def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
 
 
 def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], progress) -> None:
-    from . import api
-    from ._io import image_format, read_image, write_image
+    """Read, render and write one input.
 
-    image = read_image(job.input)
+    zarr stores, TIFF stacks over ``LAZY_TIFF_BYTES`` and, with --scheduler,
+    every TIFF are opened lazily: the rendering is a dask array written block
+    by block (progress counts planes written); the default tone limits of a
+    lazy input are found by ``default_tone_limits`` (exact, in bounded
+    memory) and reported. Other inputs are rendered in memory (progress
+    counts plane-passes).
+    """
+    from . import api
+    from ._chunked import default_tone_limits, is_lazy
+    from ._io import image_format, open_image, release_files, write_array
+
+    lazy = True if args.scheduler is not None else None
+    image = open_image(job.input, lazy=lazy, channel_axis=args.channel_axis)
     channel_axis = args.channel_axis
     if (
         channel_axis is None
@@ -461,16 +602,58 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
         and image.shape[-1] in (2, 3, 4)
     ):
         channel_axis = -1
-    kwargs = dict(options, channel_axis=channel_axis, progress=progress)
-    if args.stack:
-        result = api.labyrinth_stack(image, **kwargs)
-    elif args.sweep is not None:
-        name, values = args.sweep
-        result = api.labyrinth_sweep(image, name, values, **kwargs)
-    else:
-        result = api.labyrinth(image, **kwargs)
-    job.output.parent.mkdir(parents=True, exist_ok=True)
-    write_image(job.output, result, overwrite=args.overwrite)
+    kwargs = dict(options, channel_axis=channel_axis)
+    chunked = is_lazy(image)
+    try:
+        if not chunked:
+            kwargs["progress"] = progress
+        elif "tone_limits" not in options and image.dtype.name != "uint8":
+            # a lazy rendering is only a graph: building one checks the input (dtype,
+            # shape, channel axis) before a scan of the whole data
+            api.labyrinth(image, **dict(kwargs, tone_limits=(0.0, 1.0)))
+            _note(
+                f"{job.input}: finding the default tone limits (0.5th and 99.5th "
+                "percentiles) in a pass over the data; --tone-limits skips it"
+            )
+            low, high = default_tone_limits(image, channel_axis)
+            kwargs["tone_limits"] = (low, high)
+            _note(f"{job.input}: tone limits {low!r} {high!r}")
+        if args.stack:
+            result = api.labyrinth_stack(image, **kwargs)
+        elif args.sweep is not None:
+            name, values = args.sweep
+            result = api.labyrinth_sweep(image, name, values, **kwargs)
+        else:
+            result = api.labyrinth(image, **kwargs)
+        extra = 1 if args.stack or args.sweep is not None else 0
+        plane_axes = _plane_axes(image.ndim, channel_axis, extra)
+        job.output.parent.mkdir(parents=True, exist_ok=True)
+        write_array(
+            job.output,
+            result,
+            overwrite=args.overwrite,
+            plane_axes=plane_axes,
+            progress=functools.partial(progress, unit="plane") if chunked and progress else None,
+        )
+    finally:
+        if chunked:
+            release_files()
+
+
+def _plane_axes(ndim: int, channel_axis: int | None, extra: int) -> tuple[int, ...]:
+    """Axes of one plane of a result with ``extra`` axes before those of the image."""
+    if channel_axis is None:
+        return (extra + ndim - 2, extra + ndim - 1)
+    channel = channel_axis % ndim
+    spatial = [axis for axis in range(ndim) if axis != channel][-2:]
+    return tuple(sorted(extra + axis for axis in (*spatial, channel)))
+
+
+def _note(message: str) -> None:
+    """An informational line on stderr (kept apart from progress bars)."""
+    from tqdm import tqdm
+
+    tqdm.write(f"{PROG}: {message}", file=sys.stderr)
 
 
 def _summary(done: int, total: int, failed: list[Path]) -> None:
@@ -598,7 +781,7 @@ def _describe(exc: BaseException, path: Path | str) -> str:
         return _one_line(text)
     text = _one_line(str(exc)) or type(exc).__name__
     prefix = f"{path}: "
-    return text[len(prefix) :] if text.startswith(prefix) else text
+    return text.removeprefix(prefix)
 
 
 def _one_line(text: str) -> str:

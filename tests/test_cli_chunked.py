@@ -1,0 +1,393 @@
+"""Chunked inputs and outputs of the command line: zarr stores and lazily read TIFF stacks.
+
+Every lazy rendering must equal the in-memory ``labyrinth()`` of the same
+data bit for bit, whatever the chunks of the store, and the default tone
+limits found by streaming must equal those ``labyrinth()`` finds in memory.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+zarr = pytest.importorskip("zarr")
+da = pytest.importorskip("dask.array")
+
+from napari_labyrinth import _chunked, _io, labyrinth, labyrinth_stack, labyrinth_sweep
+from napari_labyrinth._io import open_image, read_image, write_image
+from napari_labyrinth.cli import main
+
+SHAPE = (6, 64, 64)
+OPTIONS = ["--passes", "2", "--seed", "7"]
+API_OPTIONS = {"passes": 2, "seed": 7}
+
+
+def textured(shape=SHAPE, dtype=np.uint16, seed=0) -> np.ndarray:
+    """Ramps, a bright square and noise, different in every plane."""
+    rng = np.random.default_rng(seed)
+    _, x = np.mgrid[: shape[-2], : shape[-1]]
+    planes = []
+    for k in range(int(np.prod(shape[:-2]))):
+        base = (
+            40 + 150 * (((x + 5 * k) % shape[-1]) / shape[-1]) + 20 * rng.standard_normal(x.shape)
+        )
+        base[10 + k % 7 : 30, 12:40] += 60
+        planes.append(np.clip(base, 0, 255))
+    image = np.reshape(planes, shape)
+    dtype = np.dtype(dtype)
+    if dtype == np.uint16:
+        return (image * 257).astype(np.uint16)
+    if dtype.kind == "f":
+        return (image / 255).astype(dtype)
+    return image.astype(dtype)
+
+
+def store(path: Path, image: np.ndarray, chunks=None) -> Path:
+    """A zarr array at ``path`` (chunks: one plane by default)."""
+    chunks = chunks or (1,) * (image.ndim - 2) + image.shape[-2:]
+    array = zarr.create_array(store=str(path), shape=image.shape, chunks=chunks, dtype=image.dtype)
+    array[...] = image
+    return path
+
+
+def leftovers(directory) -> list[str]:
+    return [p.name for p in Path(directory).rglob("*.tmp")] + [
+        p.name for p in Path(directory).rglob("*.old")
+    ]
+
+
+def error_lines(stderr: str) -> list[str]:
+    return [line for line in stderr.splitlines() if line.startswith("napari-labyrinth: error:")]
+
+
+def render(*argv) -> int:
+    return main(["render", *map(str, argv)])
+
+
+# -- zarr and TIFF in and out ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+def test_zarr_to_zarr_equals_the_api(tmp_path, capsys, dtype):
+    image = textured(dtype=dtype)
+    source = store(tmp_path / "in.zarr", image)
+    target = tmp_path / "out.zarr"
+    assert render(source, "-o", target, *OPTIONS) == 0
+    expected = labyrinth(image, **API_OPTIONS)  # default tone limits, found in memory
+    assert not np.array_equal(expected, image)
+    result = zarr.open_array(str(target), mode="r")
+    assert result.dtype == image.dtype and result.shape == image.shape
+    assert result.chunks == (1, 64, 64)  # one chunk per plane
+    np.testing.assert_array_equal(result[...], expected)
+    captured = capsys.readouterr()
+    assert captured.out.strip() == str(target)
+    if dtype != np.uint8:
+        assert "tone limits" in captured.err  # streamed, and reported
+    assert error_lines(captured.err) == []
+    assert leftovers(tmp_path) == []
+
+
+def test_zarr_to_tiff_and_tiff_to_zarr(tmp_path, monkeypatch):
+    image = textured()
+    expected = labyrinth(image, **API_OPTIONS)
+    store(tmp_path / "in.zarr", image)
+    assert render(tmp_path / "in.zarr", "-o", tmp_path / "out.tif", *OPTIONS) == 0
+    np.testing.assert_array_equal(read_image(tmp_path / "out.tif"), expected)
+
+    write_image(tmp_path / "in.tif", image)
+    # a small TIFF is read into memory ...
+    assert render(tmp_path / "in.tif", "-o", tmp_path / "small.zarr", *OPTIONS) == 0
+    np.testing.assert_array_equal(read_image(tmp_path / "small.zarr"), expected)
+    # ... a large one lazily, plane by plane
+    monkeypatch.setattr(_io, "LAZY_TIFF_BYTES", 0)
+    assert _chunked.is_lazy(open_image(tmp_path / "in.tif"))
+    assert render(tmp_path / "in.tif", "-o", tmp_path / "large.zarr", *OPTIONS) == 0
+    np.testing.assert_array_equal(read_image(tmp_path / "large.zarr"), expected)
+    assert render(tmp_path / "in.tif", "-o", tmp_path / "large.tif", *OPTIONS) == 0
+    np.testing.assert_array_equal(read_image(tmp_path / "large.tif"), expected)
+    assert leftovers(tmp_path) == []
+
+
+@pytest.mark.parametrize(
+    "chunks",
+    [(1, 16, 32), (1, 64, 17), (4, 64, 64), (4, 32, 32), (6, 64, 64)],
+    ids=lambda c: "x".join(map(str, c)),
+)
+def test_any_store_chunks_give_the_same_result(tmp_path, chunks):
+    image = textured()
+    store(tmp_path / "in.zarr", image, chunks=chunks)
+    lazy = open_image(tmp_path / "in.zarr")
+    assert all(len(c) == 1 for c in lazy.chunks[-2:])  # whole planes, never tiles
+    argv = [tmp_path / "in.zarr", "-o", tmp_path / "out.zarr", "--tone-limits", "0", "65535"]
+    assert render(*argv, *OPTIONS) == 0
+    expected = labyrinth(image, tone_limits=(0, 65535), **API_OPTIONS)
+    np.testing.assert_array_equal(read_image(tmp_path / "out.zarr"), expected)
+
+
+def test_four_dimensional_stack_and_colour(tmp_path):
+    image = textured((2, 3, 32, 40))
+    store(tmp_path / "tz.zarr", image, chunks=(1, 2, 32, 40))
+    assert render(tmp_path / "tz.zarr", "-o", tmp_path / "tz.tif", *OPTIONS) == 0
+    np.testing.assert_array_equal(read_image(tmp_path / "tz.tif"), labyrinth(image, **API_OPTIONS))
+    rgba = np.moveaxis(textured((4, 32, 40), np.uint8), 0, -1)[None].repeat(3, axis=0)
+    store(tmp_path / "rgba.zarr", rgba, chunks=(1, 32, 40, 4))
+    argv = [tmp_path / "rgba.zarr", "-o", tmp_path / "rgba_out.zarr", "--channel-axis", "-1"]
+    assert render(*argv, *OPTIONS) == 0
+    out = zarr.open_array(str(tmp_path / "rgba_out.zarr"), mode="r")
+    assert out.chunks == (1, 32, 40, 4)  # a plane is all its channels
+    expected = labyrinth(rgba, channel_axis=-1, **API_OPTIONS)
+    np.testing.assert_array_equal(out[...], expected)
+    np.testing.assert_array_equal(out[..., 3], rgba[..., 3])  # alpha kept
+
+
+@pytest.mark.parametrize("suffix", [".zarr", ".tif"])
+def test_stack_and_sweep_of_a_store(tmp_path, suffix):
+    image = textured((3, 40, 48))
+    store(tmp_path / "in.zarr", image)
+    out = tmp_path / "out"
+    assert render(tmp_path / "in.zarr", "-o", out, "--stack", "--passes", "2") == 0
+    stack = read_image(out / "in_labyrinth_stack.zarr")
+    np.testing.assert_array_equal(stack, labyrinth_stack(image, passes=2))
+    target = tmp_path / f"sweep{suffix}"
+    assert render(tmp_path / "in.zarr", "-o", target, "--sweep", "seed=1,2", "--passes", "1") == 0
+    np.testing.assert_array_equal(
+        read_image(target), labyrinth_sweep(image, "seed", [1, 2], passes=1)
+    )
+    target = tmp_path / f"stack{suffix}"
+    assert render(tmp_path / "in.zarr", "-o", target, "--stack", "--passes", "2") == 0
+    np.testing.assert_array_equal(read_image(target), labyrinth_stack(image, passes=2))
+
+
+def test_lazy_tiff_output_is_written_plane_by_plane(tmp_path, monkeypatch):
+    """The TIFF of a lazy result is never computed whole: blocks arrive one plane at a time."""
+    image = textured()
+    store(tmp_path / "in.zarr", image)
+    sizes = []
+    real = _io._write_contiguous
+
+    def spy(fd, offset, shape, itemsize, block, location):
+        sizes.append(block.shape)
+        real(fd, offset, shape, itemsize, block, location)
+
+    monkeypatch.setattr(_io, "_write_contiguous", spy)
+    assert render(tmp_path / "in.zarr", "-o", tmp_path / "out.tif", *OPTIONS) == 0
+    assert sizes == [(1, 64, 64)] * 6
+    np.testing.assert_array_equal(
+        read_image(tmp_path / "out.tif"), labyrinth(image, **API_OPTIONS)
+    )
+
+
+def test_png_output_of_a_single_plane_store(tmp_path):
+    image = textured((48, 40), np.uint8)
+    store(tmp_path / "one.zarr", image)
+    assert render(tmp_path / "one.zarr", "-o", tmp_path / "one.png", *OPTIONS) == 0
+    np.testing.assert_array_equal(
+        read_image(tmp_path / "one.png"), labyrinth(image, **API_OPTIONS)
+    )
+
+
+def test_directory_output_names_stores_after_the_store(tmp_path):
+    image = textured()
+    store(tmp_path / "a.zarr", image)
+    write_image(tmp_path / "b.tif", image)
+    argv = [tmp_path / "a.zarr", tmp_path / "b.tif", "-o", tmp_path / "out", "--tone-limits"]
+    assert render(*argv, "0", "65535", *OPTIONS) == 0
+    assert sorted(os.listdir(tmp_path / "out")) == ["a_labyrinth.zarr", "b_labyrinth.tif"]
+
+
+# -- groups ---------------------------------------------------------------------------------------
+
+
+def test_groups_ome_zarr_and_named_arrays(tmp_path, capsys):
+    image = textured()
+    expected = labyrinth(image, tone_limits=(0, 65535), **API_OPTIONS)
+    limits = ["--tone-limits", "0", "65535", *OPTIONS]
+    ome = zarr.open_group(str(tmp_path / "image.ome.zarr"), mode="w")
+    ome.attrs["ome"] = {"multiscales": [{"datasets": [{"path": "0"}, {"path": "1"}]}]}
+    ome.create_array("0", shape=image.shape, chunks=(1, 64, 64), dtype=image.dtype)[...] = image
+    ome.create_array("1", shape=(6, 32, 32), dtype=image.dtype)
+    assert render(tmp_path / "image.ome.zarr", "-o", tmp_path / "a.zarr", *limits) == 0
+    np.testing.assert_array_equal(read_image(tmp_path / "a.zarr"), expected)
+
+    group = zarr.open_group(str(tmp_path / "two.zarr"), mode="w")
+    group.create_array("raw", shape=image.shape, dtype=image.dtype)[...] = image
+    group.create_array("mask", shape=image.shape, dtype=np.uint8)
+    assert render(tmp_path / "two.zarr", "-o", tmp_path / "b.zarr", *limits) == 1
+    (line,) = error_lines(capsys.readouterr().err)
+    assert "2 arrays" in line and "two.zarr/mask" in line
+    assert render(tmp_path / "two.zarr" / "raw", "-o", tmp_path / "b.zarr", *limits) == 0
+    np.testing.assert_array_equal(read_image(tmp_path / "b.zarr"), expected)
+
+
+# -- overwriting and failures ---------------------------------------------------------------------
+
+
+def test_refuses_to_overwrite_a_store(tmp_path, capsys):
+    image = textured()
+    store(tmp_path / "in.zarr", image)
+    old = store(tmp_path / "out.zarr", np.ones((2, 8, 8), np.uint8))
+    argv = [tmp_path / "in.zarr", "-o", old, *OPTIONS]
+    assert render(*argv) == 1
+    err = capsys.readouterr().err
+    assert "out.zarr" in err and "--overwrite" in err and "Traceback" not in err
+    np.testing.assert_array_equal(read_image(old), np.ones((2, 8, 8), np.uint8))
+    assert render(*argv, "--overwrite") == 0
+    np.testing.assert_array_equal(read_image(old), labyrinth(image, **API_OPTIONS))
+    assert sorted(os.listdir(tmp_path)) == ["in.zarr", "out.zarr"]  # nothing moved aside is left
+
+
+def test_a_directory_that_is_not_a_store_is_never_replaced(tmp_path, capsys):
+    store(tmp_path / "in.zarr", textured())
+    mine = tmp_path / "notes.zarr"
+    mine.mkdir()
+    (mine / "thesis.txt").write_text("precious")
+    argv = [tmp_path / "in.zarr", "-o", mine, "--overwrite", *OPTIONS]
+    assert render(*argv) == 1
+    (line,) = error_lines(capsys.readouterr().err)
+    assert "not a zarr store" in line
+    assert os.listdir(mine) == ["thesis.txt"]
+    assert leftovers(tmp_path) == []
+
+
+def test_refuses_to_overwrite_the_input_store(tmp_path, capsys):
+    image = textured()
+    source = store(tmp_path / "in.zarr", image)
+    assert render(source, "-o", source, *OPTIONS) == 1
+    assert "input" in capsys.readouterr().err
+    np.testing.assert_array_equal(read_image(source), image)
+    # and the store holding an input array, too
+    group = zarr.open_group(str(tmp_path / "group.zarr"), mode="w")
+    group.create_array("raw", shape=image.shape, dtype=image.dtype)[...] = image
+    assert render(tmp_path / "group.zarr" / "raw", "-o", tmp_path / "group.zarr") == 1
+    assert "input" in capsys.readouterr().err
+    assert sorted(os.listdir(tmp_path / "group.zarr")) == ["raw", "zarr.json"]
+    # with --overwrite the input is read whole before its store is replaced
+    assert render(source, "-o", source, "--overwrite", *OPTIONS) == 0
+    np.testing.assert_array_equal(read_image(source), labyrinth(image, **API_OPTIONS))
+    assert leftovers(tmp_path) == []
+    assert sorted(os.listdir(tmp_path)) == ["group.zarr", "in.zarr"]
+
+
+def test_failure_while_writing_leaves_nothing_and_keeps_the_old_store(
+    tmp_path, monkeypatch, capsys
+):
+    image = textured()
+    store(tmp_path / "in.zarr", image)
+    old = store(tmp_path / "out.zarr", np.ones((2, 8, 8), np.uint8))
+    calls = []
+
+    def broken(path, block, location):
+        calls.append(location)
+        if len(calls) == 3:
+            raise OSError(28, "No space left on device")
+        _io._cached_zarr_for_writing(path)[tuple(slice(*r) for r in location)] = block
+
+    monkeypatch.setattr(_io, "_write_zarr_block", broken)
+    argv = [tmp_path / "in.zarr", "-o", old, "--overwrite", *OPTIONS]
+    assert render(*argv) == 1
+    (line,) = error_lines(capsys.readouterr().err)
+    assert "No space left on device" in line
+    np.testing.assert_array_equal(read_image(old), np.ones((2, 8, 8), np.uint8))
+    assert render(tmp_path / "in.zarr", "-o", tmp_path / "out.tif", *OPTIONS) == 0
+    assert sorted(os.listdir(tmp_path)) == ["in.zarr", "out.tif", "out.zarr"]
+
+
+def test_bad_stores_fail_one_line_each(tmp_path, capsys):
+    store(tmp_path / "good.zarr", textured())
+    (tmp_path / "empty.zarr").mkdir()
+    store(tmp_path / "corrupt.zarr", textured())
+    (tmp_path / "corrupt.zarr" / "c" / "4" / "0" / "0").write_bytes(b"not zstd" * 10)
+    store(tmp_path / "labels.zarr", np.zeros((2, 8, 8), np.int64))
+    argv = [
+        tmp_path / "good.zarr",
+        tmp_path / "empty.zarr",
+        tmp_path / "missing.zarr",
+        tmp_path / "corrupt.zarr",
+        tmp_path / "labels.zarr",
+        "-o",
+        tmp_path / "out",
+        *OPTIONS,
+    ]
+    assert render(*argv) == 1
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err
+    errors = error_lines(captured.err)
+    assert len(errors) == 4
+    for line, name in zip(errors, ["empty", "missing", "corrupt", "labels"], strict=True):
+        assert f"{name}.zarr" in line
+    assert "Zstd" in errors[2] and "int64" in errors[3]
+    assert os.listdir(tmp_path / "out") == ["good_labyrinth.zarr"]
+    assert leftovers(tmp_path) == []
+
+
+def test_several_inputs_cannot_go_to_one_store(tmp_path, capsys):
+    store(tmp_path / "a.zarr", textured())
+    store(tmp_path / "b.zarr", textured())
+    assert render(tmp_path / "a.zarr", tmp_path / "b.zarr", "-o", tmp_path / "o.zarr") == 2
+    assert len(error_lines(capsys.readouterr().err)) == 1
+
+
+@pytest.mark.parametrize("bad", [["--scheduler", "local:zero"], ["--scheduler", "local:0"]])
+def test_bad_scheduler_is_a_usage_error(tmp_path, capsys, bad):
+    store(tmp_path / "a.zarr", textured())
+    assert render(tmp_path / "a.zarr", "-o", tmp_path / "o.zarr", *bad) == 2
+    assert "Traceback" not in capsys.readouterr().err
+
+
+# -- streaming tone limits ------------------------------------------------------------------------
+
+
+def random_values(rng, dtype, size):
+    dtype = np.dtype(dtype)
+    if dtype.kind in "iu":
+        info = np.iinfo(dtype)
+        wide = rng.integers(info.min, int(info.max) + 1, size, dtype=dtype)
+        narrow = rng.integers(0, 40, size).astype(dtype)
+        return wide if rng.random() < 0.5 else narrow
+    values = (rng.standard_normal(size) * 10.0 ** rng.integers(-3, 4)).astype(dtype)
+    values[rng.random(size) < 0.05] = np.nan
+    values[rng.random(size) < 0.02] = np.inf
+    values[: size // 3] = 0  # a mass of equal values
+    return values
+
+
+@pytest.mark.parametrize(
+    "dtype", ["uint16", "int16", "int8", "uint32", "int32", "float16", "float32", "float64"]
+)
+@pytest.mark.parametrize("gather_limit", [1 << 18, 3])
+def test_streamed_percentiles_equal_numpy_bit_for_bit(monkeypatch, dtype, gather_limit):
+    monkeypatch.setattr(_chunked, "GATHER_LIMIT", gather_limit)  # 3: every bin is split again
+    rng = np.random.default_rng(abs(hash((dtype, gather_limit))) % 2**32)
+    for _ in range(4):
+        size = int(rng.integers(1, 1500))
+        values = random_values(rng, dtype, size).reshape(1, size)
+        lazy = da.from_array(values, chunks=(1, max(1, size // 4)))
+        finite = values[np.isfinite(values)]
+        expected = [float(v) for v in np.percentile(finite, (0.5, 99.5))] if finite.size else None
+        assert _chunked.percentiles(lazy, (0.5, 99.5)) == expected
+
+
+def test_default_tone_limits_match_the_api(monkeypatch):
+    from napari_labyrinth._tone_scale import resolve_tone_scale
+
+    rng = np.random.default_rng(3)
+    cases = [
+        textured(dtype=np.uint16),
+        textured(dtype=np.float32),
+        np.full((2, 8, 8), 7, np.int32),  # constant: high = low + 1
+        np.full((2, 8, 8), np.nan, np.float32),  # nothing finite: (0, 1)
+        rng.integers(0, 2**31, (3, 16, 16), dtype=np.int32),
+    ]
+    for image in cases:
+        scale = resolve_tone_scale(image, None)
+        lazy = da.from_array(image, chunks=(1,) + image.shape[1:])
+        assert _chunked.default_tone_limits(lazy) == (scale.low, scale.high)
+        assert _chunked.default_tone_limits(image) == (scale.low, scale.high)
+    rgba = rng.integers(0, 4000, (2, 8, 8, 4), dtype=np.uint16)
+    rgba[..., 3] = 65535  # alpha does not count
+    scale = resolve_tone_scale(rgba[..., :3], None)
+    lazy = da.from_array(rgba, chunks=(1, 8, 8, 4))
+    assert _chunked.default_tone_limits(lazy, channel_axis=-1) == (scale.low, scale.high)
