@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test bench study gallery screenshot install install-test system-packages clean
+.PHONY: demo test bench bench-scale study gallery screenshot install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
@@ -15,6 +15,10 @@ test: $(VENV)/.installed-test system-packages
 
 bench: $(VENV)/.installed
 	$(PY) benchmarks/bench_kernel.py
+	$(PY) benchmarks/bench_parallel.py
+
+bench-scale: $(VENV)/.installed-test
+	$(PY) benchmarks/bench_scale.py --planes 200
 
 # The study behind the presets (docs/study/) and the paper's figures (docs/gallery/).
 study: $(VENV)/.installed
