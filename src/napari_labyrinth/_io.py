@@ -14,6 +14,7 @@ per plane, or a TIFF file whose planes are written as they are computed.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import errno
 import functools
@@ -191,22 +192,31 @@ def write_image(path: str | os.PathLike, array: np.ndarray, *, overwrite: bool =
         raise FileExistsError(f"{path} already exists (use overwrite to replace it)")
     directory = path.parent
     temporary, handle = _create_temporary(directory, path.name)
-    try:
+    with _published(temporary, path, overwrite=overwrite):
         with handle:
             _write(handle, kind, path.suffix.lower(), array)
             handle.flush()
             os.fsync(handle.fileno())
+    return path
+
+
+@contextlib.contextmanager
+def _published(temporary: Path, path: Path, *, overwrite: bool):
+    """Move ``temporary`` to ``path`` once the block has written it; remove it on failure.
+
+    ``os.replace`` with ``overwrite``; otherwise a hard link that refuses to
+    clobber a file created in the meantime.
+    """
+    try:
+        yield
         if overwrite:
             os.replace(temporary, path)
         else:
             _link_no_clobber(temporary, path)
     except BaseException:
-        try:
+        with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
-        except FileNotFoundError:
-            pass
         raise
-    return path
 
 
 def _reason(exc: BaseException) -> str:
@@ -606,7 +616,7 @@ def _write_tiff_lazily(path: Path, array, *, overwrite, plane_axes, progress) ->
     array = _native(array)
     temporary, handle = _create_temporary(path.parent, path.name)
     handle.close()
-    try:
+    with _published(temporary, path, overwrite=overwrite):
         rgb = array.ndim >= 3 and array.shape[-1] in (3, 4) and array.dtype.kind in "uif"
         offset, _ = tifffile.imwrite(
             temporary,
@@ -627,16 +637,6 @@ def _write_tiff_lazily(path: Path, array, *, overwrite, plane_axes, progress) ->
             os.fsync(fd)
         finally:
             os.close(fd)
-        if overwrite:
-            os.replace(temporary, path)
-        else:
-            _link_no_clobber(temporary, path)
-    except BaseException:
-        try:
-            os.unlink(temporary)
-        except FileNotFoundError:
-            pass
-        raise
 
 
 def _write_contiguous(fd, offset, shape, itemsize, block, location) -> None:
