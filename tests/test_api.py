@@ -421,10 +421,15 @@ class TestDask:
             sweep.compute(), labyrinth_sweep(rgb[..., 0], "seed", [1, 2])
         )
 
-    def test_other_dtypes_need_tone_limits(self, camera):
-        data16 = self.da.from_array(camera.astype(np.uint16) * 50)
-        with pytest.raises(ValueError, match="tone_limits is required"):
-            labyrinth(data16)
+    def test_other_dtypes_get_the_same_default_tone_limits(self, camera):
+        data16 = self.da.from_array(camera.astype(np.uint16) * 50, chunks=(32, 64))
+        np.testing.assert_array_equal(
+            labyrinth(data16).compute(), labyrinth(camera.astype(np.uint16) * 50)
+        )
+        floats = np.where(camera > 200, np.nan, camera / 7.0)
+        np.testing.assert_array_equal(
+            labyrinth(self.da.from_array(floats, chunks=(50, 50))).compute(), labyrinth(floats)
+        )
         np.testing.assert_array_equal(
             labyrinth(data16, tone_limits=(0, 12750)).compute(),
             labyrinth(camera.astype(np.uint16) * 50, tone_limits=(0, 12750)),

@@ -148,8 +148,10 @@ def labyrinth(
     tone_limits : (float, float), optional
         Values mapped to tones 0 and 255. Default: (0, 255) for uint8, the
         0.5th and 99.5th percentiles of the finite values for other dtypes
-        (one scale for the whole image, alpha excluded). Required for dask
-        arrays of other dtypes than uint8.
+        (one scale for the whole image, alpha excluded). For a dask array of
+        another dtype than uint8 the default costs extra passes over the data
+        (streamed, exact: the same limits as in memory); pass the limits to
+        keep the call lazy.
     plane_offset : int, optional
         Flat index of the image's first plane in a larger stack it was taken
         from: plane k draws the random stream of plane ``plane_offset + k``,
@@ -453,10 +455,9 @@ def _render_lazy(
     channel_axis = _normalise_channel_axis(channel_axis, image.ndim)
     dtype = np.dtype(image.dtype)
     if tone_limits is None and dtype != np.uint8:
-        raise ValueError(
-            f"tone_limits is required for a dask array of dtype {dtype}: the default "
-            "(percentiles of the data) would read the whole array; pass (low, high)"
-        )
+        from ._chunked import default_tone_limits  # exact, streamed over the blocks
+
+        tone_limits = default_tone_limits(image, channel_axis)
     scale = resolve_tone_scale(np.empty(0, dtype), tone_limits)
     planes = image if channel_axis is None else da.moveaxis(image, channel_axis, -3)
     whole = {planes.ndim - 2: -1, planes.ndim - 1: -1}
