@@ -1,6 +1,6 @@
-"""Lazy (dask) images for the command line: exact tone limits in bounded memory, block runs.
+"""Lazy (dask) images: exact tone limits in bounded memory, block runs.
 
-Two things the command line needs when an image does not fit in memory:
+What the API and the command line need when an image does not fit in memory:
 
 - ``default_tone_limits``: the tone limits :func:`napari_labyrinth.labyrinth`
   would choose for the whole image (the 0.5th and 99.5th percentiles of its
