@@ -203,9 +203,16 @@ def test_sweep_varies_one_parameter_with_one_seed(camera):
 
 
 def test_sweep_default_is_the_papers_figure_3(camera):
-    sweep = labyrinth_sweep(camera)
+    sweep = labyrinth_sweep(camera)  # the preset's V -6 %, 0, +6 %, as 47 / 50 / 53 %
     assert sweep.shape == (3,) + camera.shape
-    np.testing.assert_array_equal(sweep[1], labyrinth(camera, variance_threshold=0.5))
+    np.testing.assert_array_equal(sweep[1], labyrinth(camera))
+    np.testing.assert_array_equal(sweep[2], labyrinth(camera, variance_threshold=0.0424))
+    paper = labyrinth_sweep(camera, preset="paper")
+    np.testing.assert_array_equal(
+        paper[0], labyrinth(camera, preset="paper", variance_threshold=0.47)
+    )
+    with pytest.raises(ValueError, match="non-empty"):
+        labyrinth_sweep(camera, "mean_threshold")
 
 
 def test_sweep_over_seeds_and_passes(camera):
