@@ -118,10 +118,7 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
         array = _open_zarr_array(path)
         image = np.asarray(array[...])
         return _native(image)
-    if not path.exists():
-        raise FileNotFoundError(errno.ENOENT, "no such file", str(path))
-    if path.is_dir():
-        raise ImageFileError(path, "is a directory, not an image file")
+    _require_file(path)
     try:
         if kind == "TIFF":
             import tifffile
@@ -217,6 +214,14 @@ def _published(temporary: Path, path: Path, *, overwrite: bool):
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
         raise
+
+
+def _require_file(path: Path) -> None:
+    """Raise a clear error unless ``path`` is an existing file."""
+    if not path.exists():
+        raise FileNotFoundError(errno.ENOENT, "no such file", str(path))
+    if path.is_dir():
+        raise ImageFileError(path, "is a directory, not an image file")
 
 
 def _reason(exc: BaseException) -> str:
@@ -362,10 +367,7 @@ def open_image(
         return _native(da.from_zarr(array, chunks=chunks))
     if kind != "TIFF" or lazy is False:
         return read_image(path)
-    if not path.exists():
-        raise FileNotFoundError(errno.ENOENT, "no such file", str(path))
-    if path.is_dir():
-        raise ImageFileError(path, "is a directory, not an image file")
+    _require_file(path)
     try:
         shape, dtype, store_chunks = _tiff_layout(path)
     except Exception as exc:  # tifffile raises many types for a bad file

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ._chunked import is_lazy
 from ._tone_scale import ToneScale, resolve_tone_scale
 from .parameters import (
     BORDERS,
@@ -370,7 +371,7 @@ def _split_options(options: dict[str, Any]) -> tuple[dict[str, Any], dict[str, A
 
 
 def _stack(arrays):
-    if _is_lazy(arrays[0]):
+    if is_lazy(arrays[0]):
         import dask.array as da
 
         return da.stack(arrays)
@@ -402,7 +403,7 @@ def _render(
         raise TypeError(f"plane_offset must be an integer, got {plane_offset!r}")
     if plane_offset < 0:
         raise ValueError(f"plane_offset must be >= 0, got {plane_offset}")
-    if _is_lazy(image):
+    if is_lazy(image):
         if return_diagnostics:
             raise ValueError("return_diagnostics is not available for dask arrays (lazy results)")
         if progress is not None:
@@ -440,11 +441,6 @@ def _render(
         results.append(_drive(steps, report))
         done += prepared.n_planes * parameters.passes
     return results
-
-
-def _is_lazy(image) -> bool:
-    """Whether ``image`` is a dask array (checked without importing dask)."""
-    return type(image).__module__.split(".")[0] == "dask" and hasattr(image, "chunks")
 
 
 def _render_lazy(
