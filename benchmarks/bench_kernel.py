@@ -36,10 +36,12 @@ def best_of(fn, repeats):
 
 def kernel_runner(image, preset):
     """A pass of the bare kernel on the image's tones, and the time of the copy it makes."""
-    from napari_labyrinth.api import _prepare, resolve_parameters, run_pass
+    from napari_labyrinth import resolve_parameters
+    from napari_labyrinth._engine import run_pass
+    from napari_labyrinth.core.tone_scale import resolve_tone_scale
 
     parameters = resolve_parameters(preset)
-    tones = _prepare(image, None, None).scale.to_tones(image)
+    tones = resolve_tone_scale(image, None).to_tones(image)
 
     def run():
         run_pass(tones.copy(), parameters, has_nonfinite=False)
@@ -57,7 +59,7 @@ def subprocess_seconds(code, env):
 
 def main():
     from napari_labyrinth import labyrinth
-    from napari_labyrinth._reference import reference_render
+    from napari_labyrinth.core._reference import reference_render
     from napari_labyrinth.api import resolve_parameters
 
     print("labyrinth kernel benchmark: Mpx/s per pass, single thread, JIT compile excluded")

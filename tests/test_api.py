@@ -12,7 +12,7 @@ from napari_labyrinth import (
     labyrinth_sweep,
     resolve_parameters,
 )
-from napari_labyrinth._reference import reference_render
+from napari_labyrinth.core._reference import reference_render
 
 
 @pytest.fixture(scope="module")
@@ -225,7 +225,7 @@ def test_sweep_over_seeds_and_passes(camera):
 
 
 def test_labyrinth_is_the_default_preset_and_paper_stays_literal(camera):
-    assert napari_labyrinth.presets.DEFAULT_PRESET == "labyrinth"
+    assert napari_labyrinth.core.presets.DEFAULT_PRESET == "labyrinth"
     np.testing.assert_array_equal(labyrinth(camera), labyrinth(camera, preset="labyrinth"))
     labyrinth_parameters = resolve_parameters()
     assert labyrinth_parameters.variance_action == "push_in_range"

@@ -16,7 +16,8 @@ import pytest
 zarr = pytest.importorskip("zarr")
 da = pytest.importorskip("dask.array")
 
-from napari_labyrinth import _chunked, _io, labyrinth, labyrinth_stack, labyrinth_sweep
+from napari_labyrinth import _io, labyrinth, labyrinth_stack, labyrinth_sweep
+from napari_labyrinth import lazy as lazy_images
 from napari_labyrinth._io import open_image, read_image, write_image
 from napari_labyrinth.cli import main
 
@@ -103,7 +104,7 @@ def test_zarr_to_tiff_and_tiff_to_zarr(tmp_path, monkeypatch):
     np.testing.assert_array_equal(read_image(tmp_path / "small.zarr"), expected)
     # ... a large one lazily, plane by plane
     monkeypatch.setattr(_io, "LAZY_TIFF_BYTES", 0)
-    assert _chunked.is_lazy(open_image(tmp_path / "in.tif"))
+    assert lazy_images.is_lazy(open_image(tmp_path / "in.tif"))
     assert render(tmp_path / "in.tif", "-o", tmp_path / "large.zarr", *OPTIONS) == 0
     np.testing.assert_array_equal(read_image(tmp_path / "large.zarr"), expected)
     assert render(tmp_path / "in.tif", "-o", tmp_path / "large.tif", *OPTIONS) == 0
@@ -359,7 +360,7 @@ def random_values(rng, dtype, size):
 )
 @pytest.mark.parametrize("gather_limit", [1 << 18, 3])
 def test_streamed_percentiles_equal_numpy_bit_for_bit(monkeypatch, dtype, gather_limit):
-    monkeypatch.setattr(_chunked, "GATHER_LIMIT", gather_limit)  # 3: every bin is split again
+    monkeypatch.setattr(lazy_images, "GATHER_LIMIT", gather_limit)  # 3: every bin is split again
     rng = np.random.default_rng(abs(hash((dtype, gather_limit))) % 2**32)
     for _ in range(4):
         size = int(rng.integers(1, 1500))
@@ -367,11 +368,11 @@ def test_streamed_percentiles_equal_numpy_bit_for_bit(monkeypatch, dtype, gather
         lazy = da.from_array(values, chunks=(1, max(1, size // 4)))
         finite = values[np.isfinite(values)]
         expected = [float(v) for v in np.percentile(finite, (0.5, 99.5))] if finite.size else None
-        assert _chunked.percentiles(lazy, (0.5, 99.5)) == expected
+        assert lazy_images.percentiles(lazy, (0.5, 99.5)) == expected
 
 
 def test_default_tone_limits_match_the_api(monkeypatch):
-    from napari_labyrinth._tone_scale import resolve_tone_scale
+    from napari_labyrinth.core.tone_scale import resolve_tone_scale
 
     rng = np.random.default_rng(3)
     cases = [
@@ -384,10 +385,10 @@ def test_default_tone_limits_match_the_api(monkeypatch):
     for image in cases:
         scale = resolve_tone_scale(image, None)
         lazy = da.from_array(image, chunks=(1,) + image.shape[1:])
-        assert _chunked.default_tone_limits(lazy) == (scale.low, scale.high)
-        assert _chunked.default_tone_limits(image) == (scale.low, scale.high)
+        assert lazy_images.default_tone_limits(lazy) == (scale.low, scale.high)
+        assert lazy_images.default_tone_limits(image) == (scale.low, scale.high)
     rgba = rng.integers(0, 4000, (2, 8, 8, 4), dtype=np.uint16)
     rgba[..., 3] = 65535  # alpha does not count
     scale = resolve_tone_scale(rgba[..., :3], None)
     lazy = da.from_array(rgba, chunks=(1, 8, 8, 4))
-    assert _chunked.default_tone_limits(lazy, channel_axis=-1) == (scale.low, scale.high)
+    assert lazy_images.default_tone_limits(lazy, channel_axis=-1) == (scale.low, scale.high)

@@ -101,7 +101,7 @@ def test_api_under_a_client_equals_local(client):
     local = labyrinth(image, tone_limits=(0, 65535), **API_OPTIONS)
     np.testing.assert_array_equal(on_cluster, local)
     np.testing.assert_array_equal(rendered.compute(scheduler="threads"), local)
-    ran_on = client.run(lambda: "napari_labyrinth._kernel" in __import__("sys").modules)
+    ran_on = client.run(lambda: "napari_labyrinth.core._kernel" in __import__("sys").modules)
     assert len(ran_on) == 2 and any(ran_on.values())  # the workers really rendered
 
 

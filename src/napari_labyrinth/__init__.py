@@ -2,9 +2,17 @@
 
 from importlib.metadata import PackageNotFoundError, version
 
-from .api import labyrinth, labyrinth_stack, labyrinth_sweep, resolve_parameters
-from .parameters import DIAGNOSTIC_FIELDS, LabyrinthParameters
-from .presets import PRESETS
+from .api import (
+    Progress,
+    Result,
+    labyrinth,
+    labyrinth_stack,
+    labyrinth_steps,
+    labyrinth_sweep,
+    resolve_parameters,
+)
+from .core.parameters import DIAGNOSTIC_FIELDS, PARAMETERS, LabyrinthParameters
+from .core.presets import PRESETS
 
 try:
     __version__ = version("napari-labyrinth")
@@ -13,11 +21,15 @@ except PackageNotFoundError:  # running from a source tree that is not installed
 
 __all__ = [
     "DIAGNOSTIC_FIELDS",
+    "PARAMETERS",
     "PRESETS",
     "LabyrinthParameters",
+    "Progress",
+    "Result",
     "__version__",
     "labyrinth",
     "labyrinth_stack",
+    "labyrinth_steps",
     "labyrinth_sweep",
     "resolve_parameters",
 ]

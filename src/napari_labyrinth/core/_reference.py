@@ -12,6 +12,28 @@ import math
 
 import numpy as np
 
+from .codes import (
+    BORDER_CODES,
+    CHECKERBOARD,
+    CONDITION_ORDER_CODES,
+    DIAGNOSTIC_FIELDS,
+    INSIDE,
+    LAST_DRAW,
+    LEAVE,
+    MEAN_FIRST,
+    MIRROR,
+    NEAREST,
+    ON_EXHAUSTED_CODES,
+    OPTION_CODES,
+    PUSH_IN_RANGE,
+    SCAN_CODES,
+    SERPENTINE,
+    SQRT_V_OVER_N,
+    VARIANCE_ACTION_CODES,
+    VARIANCE_RATIO_CODES,
+    WRAP,
+)
+
 _MASK64 = 0xFFFFFFFFFFFFFFFF
 
 
@@ -49,15 +71,15 @@ def _tone_range(g, range_limits, n_ranges):
 def _neighbour_coordinate(i, n, border):
     if 0 <= i < n:
         return i
-    if border == "inside":
+    if border == INSIDE:
         return None
-    if border == "mirror":
+    if border == MIRROR:
         if n == 1:
             return 0
         return -i if i < 0 else 2 * n - 2 - i
-    if border == "nearest":
+    if border == NEAREST:
         return 0 if i < 0 else n - 1
-    if border == "wrap":
+    if border == WRAP:
         return i % n
     raise ValueError(border)
 
@@ -84,23 +106,20 @@ def reference_pass(
     """One pass over a copy of ``plane``; returns ``(new_plane, counts)``.
 
     ``range_limits`` are L_inf^1 < L_sup^1 = L_inf^2 < ... < L_sup^n and
-    ``tones`` the pairs (T_inf^i, T_sup^i). ``counts`` is a dict with the
-    kernel's diagnostic names.
+    ``tones`` the pairs (T_inf^i, T_sup^i); the options are given by name
+    (``codes.py`` maps them to the kernel's codes). ``counts`` is a dict with
+    the diagnostic names of ``codes.DIAGNOSTIC_FIELDS``.
     """
+    border = BORDER_CODES[border]
+    variance_ratio = VARIANCE_RATIO_CODES[variance_ratio]
+    variance_action = VARIANCE_ACTION_CODES[variance_action]
+    condition_order = CONDITION_ORDER_CODES[condition_order]
+    on_exhausted = ON_EXHAUSTED_CODES[on_exhausted]
+    scan = SCAN_CODES[scan]
     g_plane = np.array(plane, dtype=np.float32)
     height, width = g_plane.shape
-    counts = dict.fromkeys(
-        (
-            "kept_by_mean",
-            "left_by_variance",
-            "pushed",
-            "redrawn",
-            "out_of_tries",
-            "skipped",
-        ),
-        0,
-    )
-    if scan == "checkerboard":  # colour by colour, each in raster order
+    counts = dict.fromkeys(DIAGNOSTIC_FIELDS, 0)
+    if scan == CHECKERBOARD:  # colour by colour, each in raster order
         order = [
             (y, x)
             for colour in range(4)
@@ -111,7 +130,7 @@ def reference_pass(
         order = []
         for y in range(height):
             columns = range(width)
-            if scan == "serpentine" and y % 2 == 1:
+            if scan == SERPENTINE and y % 2 == 1:
                 columns = reversed(columns)
             order += [(y, x) for x in columns]
     for y, x in order:
@@ -148,7 +167,7 @@ def reference_pass(
             mean = neighbour_sum / n
 
         mean_ratio = _ratio(abs(g - mean), mean)
-        if mean_ratio <= mean_threshold and condition_order == "mean_first":  # Eq. 2
+        if mean_ratio <= mean_threshold and condition_order == MEAN_FIRST:  # Eq. 2
             counts["kept_by_mean"] += 1
             continue
 
@@ -156,18 +175,18 @@ def reference_pass(
         for value in values:
             squares += (value - mean) * (value - mean)
         variance = squares / n  # Eq. 1
-        if variance_ratio == "sqrt(V/N)/M":
+        if variance_ratio == SQRT_V_OVER_N:
             spread = math.sqrt(variance / n)
         else:
             spread = math.sqrt(variance)
         if _ratio(spread, mean) > variance_threshold:  # Eq. 4
-            if variance_action == "leave":
+            if variance_action == LEAVE:
                 counts["left_by_variance"] += 1
                 continue
             # push g away from M: draws on g's side of M, in g's tone range
             # or up to the end of the tone scale
             t_inf, t_sup = tones[_tone_range(g, range_limits, len(tones))]
-            if variance_action == "push_in_range":
+            if variance_action == PUSH_IN_RANGE:
                 low, high = (
                     (max(mean, t_inf), t_sup) if g >= mean else (t_inf, min(mean, t_sup))
                 )
@@ -206,7 +225,7 @@ def reference_pass(
             counts["redrawn"] += 1
         else:
             counts["out_of_tries"] += 1
-            if on_exhausted == "last_draw" and draw is not None:
+            if on_exhausted == LAST_DRAW and draw is not None:
                 g_plane[y, x] = draw
     return g_plane, counts
 
@@ -214,7 +233,7 @@ def reference_pass(
 def reference_render(plane, parameters, *, seed=0, plane_index=0):
     """All ``parameters.passes`` passes over a float32 plane of tones.
 
-    ``parameters`` is a :class:`~napari_labyrinth.parameters.LabyrinthParameters`.
+    ``parameters`` is a :class:`~napari_labyrinth.core.parameters.LabyrinthParameters`.
     Returns the final plane and the list of per-pass counts.
     """
     work, all_counts = np.array(plane, dtype=np.float32), []
@@ -229,13 +248,8 @@ def reference_render(plane, parameters, *, seed=0, plane_index=0):
             seed=seed,
             plane_index=plane_index,
             pass_index=pass_index,
-            border=parameters.border,
-            variance_ratio=parameters.variance_ratio,
-            variance_action=parameters.variance_action,
-            condition_order=parameters.condition_order,
-            on_exhausted=parameters.on_exhausted,
             include_centre=parameters.include_centre,
-            scan=parameters.scan,
+            **{name: getattr(parameters, name) for name in OPTION_CODES},
         )
         all_counts.append(counts)
     return work, all_counts

@@ -6,18 +6,10 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from napari_labyrinth import DIAGNOSTIC_FIELDS, labyrinth
-from napari_labyrinth._reference import reference_pass
-from napari_labyrinth.parameters import (
-    BORDERS,
-    CONDITION_ORDERS,
-    ON_EXHAUSTED,
-    SCANS,
-    VARIANCE_ACTIONS,
-    VARIANCE_RATIOS,
-    equal_tone_ranges,
-)
+from napari_labyrinth.core._reference import reference_pass
+from napari_labyrinth.core.parameters import equal_tone_ranges
 
-from .test_kernel import assert_bitwise_equal, run_kernel
+from .test_kernel import OPTIONS, assert_bitwise_equal, run_kernel
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
@@ -39,13 +31,7 @@ options = st.fixed_dictionaries(
         "variance_threshold": st.floats(0, 2),
         "max_tries": st.integers(0, 30),
         "seed": st.integers(0, 2**64 - 1),
-        "border": st.sampled_from(BORDERS),
-        "variance_ratio": st.sampled_from(VARIANCE_RATIOS),
-        "variance_action": st.sampled_from(VARIANCE_ACTIONS),
-        "condition_order": st.sampled_from(CONDITION_ORDERS),
-        "on_exhausted": st.sampled_from(ON_EXHAUSTED),
-        "include_centre": st.booleans(),
-        "scan": st.sampled_from(SCANS),
+        **{name: st.sampled_from(values) for name, values in OPTIONS.items()},
     }
 )
 

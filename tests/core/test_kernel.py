@@ -7,17 +7,12 @@ import numpy as np
 import pytest
 
 from napari_labyrinth import PRESETS
-from napari_labyrinth._kernel import stream_key
-from napari_labyrinth._reference import reference_pass, splitmix64, uniform
-from napari_labyrinth.api import run_pass
-from napari_labyrinth.parameters import (
-    BORDERS,
-    CONDITION_ORDERS,
+from napari_labyrinth.core._kernel import stream_key
+from napari_labyrinth.core._reference import reference_pass, splitmix64, uniform
+from napari_labyrinth._engine import run_pass
+from napari_labyrinth.core.parameters import (
     DIAGNOSTIC_FIELDS,
-    ON_EXHAUSTED,
-    SCANS,
-    VARIANCE_ACTIONS,
-    VARIANCE_RATIOS,
+    PARAMETERS,
     equal_tone_ranges,
     make_parameters,
 )
@@ -78,34 +73,22 @@ def random_planes():
 
 
 PLANES = random_planes()
-OPTION_GRID = list(
-    itertools.product(
-        BORDERS,
-        VARIANCE_RATIOS,
-        VARIANCE_ACTIONS,
-        CONDITION_ORDERS,
-        ON_EXHAUSTED,
-        (False, True),
-        SCANS,
-    )
-)
+#: Every parameter with a finite set of values (the options the paper leaves
+#: open), from the parameter table: adding an option adds it to the grid.
+OPTIONS = {
+    name: parameter.choices if parameter.kind == "choice" else (False, True)
+    for name, parameter in PARAMETERS.items()
+    if parameter.kind in ("choice", "bool")
+}
+OPTION_GRID = [dict(zip(OPTIONS, values)) for values in itertools.product(*OPTIONS.values())]
 
 
 @pytest.mark.parametrize(
-    "border,variance_ratio,variance_action,condition_order,on_exhausted,include_centre,scan",
-    OPTION_GRID,
+    "grid_options", OPTION_GRID, ids=["-".join(map(str, o.values())) for o in OPTION_GRID]
 )
-def test_kernel_matches_reference_bit_for_bit(
-    border, variance_ratio, variance_action, condition_order, on_exhausted, include_centre, scan
-):
+def test_kernel_matches_reference_bit_for_bit(grid_options):
     options = dict(
-        border=border,
-        variance_ratio=variance_ratio,
-        variance_action=variance_action,
-        condition_order=condition_order,
-        on_exhausted=on_exhausted,
-        include_centre=include_centre,
-        scan=scan,
+        grid_options,
         seed=12345,
         plane_index=3,
         pass_index=2,
@@ -121,7 +104,7 @@ def test_kernel_matches_reference_bit_for_bit(
             for field in seen:
                 seen[field] += got_counts[field]
     # the images were chosen so that every branch of the algorithm runs
-    if variance_action == "leave":
+    if grid_options["variance_action"] == "leave":
         assert seen.pop("pushed") == 0
     assert all(count > 0 for count in seen.values()), seen
 

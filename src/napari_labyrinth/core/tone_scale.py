@@ -12,6 +12,37 @@ import numpy as np
 #: every dtype but uint8 (robust to a few hot or dead pixels).
 DEFAULT_PERCENTILES = (0.5, 99.5)
 
+#: The dtypes an image may have: integers up to 32 bits and floats.
+SUPPORTED_DTYPES = tuple(
+    np.dtype(t)
+    for t in (
+        np.uint8,
+        np.uint16,
+        np.uint32,
+        np.int8,
+        np.int16,
+        np.int32,
+        np.float16,
+        np.float32,
+        np.float64,
+    )
+)
+
+
+def validate_dtype(dtype: np.dtype) -> np.dtype:
+    """``dtype`` if an image may have it; a TypeError saying what to do otherwise."""
+    dtype = np.dtype(dtype)
+    if dtype not in SUPPORTED_DTYPES:
+        if dtype.kind in "iu":
+            hint = "; 64-bit integers usually hold labels: cast an intensity image to float32"
+        else:
+            hint = ""
+        raise TypeError(
+            f"image dtype {dtype} is not supported: use an integer type up to "
+            f"32 bits or a float type{hint}"
+        )
+    return dtype
+
 
 @dataclasses.dataclass(frozen=True)
 class ToneScale:

@@ -1,0 +1,253 @@
+"""The run engine: drives the numba kernel over planes, passes and threads.
+
+A run is a generator. It yields a :class:`Progress` after every pass of
+every plane and returns the rendered array and its diagnostics; closing it
+(``generator.close()``) cancels the run: planes in flight stop after their
+current pass, planes not started never start, and nothing is left running
+when ``close`` returns. The engine knows arrays, layouts and tone scales;
+argument checking and presets belong to the API.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import queue
+import threading
+from collections.abc import Generator
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import numpy as np
+
+from .core.codes import DIAGNOSTIC_FIELDS, OPTION_CODES, SKIPPED
+from .core.parameters import LabyrinthParameters
+from .core.planes import PlaneLayout
+from .core.tone_scale import ToneScale
+
+#: dtype of the per-pass diagnostics: one count per field of ``DIAGNOSTIC_FIELDS``.
+DIAGNOSTICS_DTYPE = np.dtype([(name, np.int64) for name in DIAGNOSTIC_FIELDS])
+
+#: Bytes of a cache line: per-thread counters are padded to whole lines.
+_CACHE_LINE = 64
+
+
+@dataclasses.dataclass(frozen=True)
+class Progress:
+    """A progress event of a run: one more pass of one plane is done.
+
+    Attributes
+    ----------
+    done, total : int
+        Plane-passes done so far and in the whole run (every rendering of a
+        sweep included; alpha planes are not rendered and not counted).
+    run : int
+        Which rendering of a sweep (0 otherwise).
+    plane : int
+        Flat index of the plane among the image's planes (colour axis last).
+    pass_number : int
+        Passes done on that plane, from 1.
+    """
+
+    done: int
+    total: int
+    run: int
+    plane: int
+    pass_number: int
+
+
+def render(
+    image: np.ndarray,
+    layout: PlaneLayout,
+    scale: ToneScale,
+    parameters: LabyrinthParameters,
+    seed: int,
+    *,
+    record_passes: bool,
+    workers: int = 1,
+) -> Generator[tuple[int, int], None, tuple[np.ndarray, np.ndarray]]:
+    """Render every plane of ``image``; yield ``(plane, pass_number)`` after each pass.
+
+    With several planes and ``workers > 1`` planes run concurrently on
+    threads (the kernel holds no GIL); a single plane gives its workers to
+    the checkerboard bands of :func:`run_pass`. Returns (as the generator's
+    value) the rendered image, or with ``record_passes`` the input followed by
+    the image after every pass, and the diagnostics in the image's layout.
+    """
+    passes = parameters.passes
+    if record_passes:
+        result = np.empty((passes + 1,) + image.shape, dtype=image.dtype)
+        result[...] = image
+        targets = [layout.to_planes(result[k]) for k in range(1, passes + 1)]
+    else:
+        result = image.copy()
+        targets = [layout.to_planes(result)]
+    source = layout.to_planes(image)
+    leading = layout.leading_shape
+    counts = np.zeros((passes,) + leading + (len(DIAGNOSTIC_FIELDS),), dtype=np.int64)
+    for index in np.ndindex(leading):
+        if layout.is_alpha(index):
+            counts[(slice(None),) + index + (SKIPPED,)] = math.prod(layout.plane_shape)
+    planes = list(layout.rendered_indices())
+    plane_workers = max(1, min(workers, len(planes)))
+    stop = threading.Event()
+
+    def passes_of(index):
+        """Every pass over one plane, yielding after each; stops early once ``stop`` is set."""
+        initial = np.ascontiguousarray(scale.to_tones(source[index]))
+        has_nonfinite = image.dtype.kind == "f" and not np.isfinite(initial).all()
+        work = initial.copy()
+        for pass_index in range(passes):
+            if stop.is_set():
+                return
+            run_pass(
+                work,
+                parameters,
+                seed=seed,
+                plane_index=layout.stream_index(index),
+                pass_index=pass_index,
+                counts=counts[(pass_index,) + index],
+                has_nonfinite=has_nonfinite,
+                workers=workers if plane_workers == 1 else 1,
+            )
+            if record_passes:
+                write_changes(targets[pass_index][index], initial, work, scale)
+            yield pass_index + 1
+        if not record_passes and passes:
+            write_changes(targets[0][index], initial, work, scale)
+
+    flat = {index: int(np.ravel_multi_index(index, leading)) if index else 0 for index in planes}
+    if plane_workers == 1:
+        for index in planes:
+            for pass_number in passes_of(index):
+                yield flat[index], pass_number
+    else:
+        yield from _on_threads(planes, passes, passes_of, flat, plane_workers, stop)
+    diagnostics = layout.to_image_layout(counts.view(DIAGNOSTICS_DTYPE)[..., 0])
+    return result, np.ascontiguousarray(diagnostics)
+
+
+def _on_threads(planes, passes, passes_of, flat, plane_workers, stop):
+    """Run ``passes_of(plane)`` for every plane on a pool; yield as passes finish."""
+    finished: queue.SimpleQueue = queue.SimpleQueue()  # (plane, pass) or an error
+
+    def run(index):
+        try:
+            for pass_number in passes_of(index):
+                finished.put((flat[index], pass_number))
+        except BaseException as error:  # noqa: BLE001 - raised in the caller's thread
+            finished.put(error)
+
+    expected = len(planes) * passes
+    pool = ThreadPoolExecutor(plane_workers, thread_name_prefix="napari-labyrinth")
+    try:
+        for index in planes:
+            pool.submit(run, index)
+        for _ in range(expected):
+            item = finished.get()
+            if isinstance(item, BaseException):
+                raise item
+            yield item
+    finally:  # done, failed, or closed by the caller: nothing is left running
+        stop.set()
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def run_to_end(steps: Generator[Any, None, Any]) -> Any:
+    """Run a generator to its end and return its value (the result of :func:`render`)."""
+    while True:
+        try:
+            next(steps)
+        except StopIteration as finished:
+            return finished.value
+
+
+def run_pass(
+    tones: np.ndarray,
+    parameters: LabyrinthParameters,
+    *,
+    seed: int = 0,
+    plane_index: int = 0,
+    pass_index: int = 0,
+    counts: np.ndarray | None = None,
+    has_nonfinite: bool | None = None,
+    workers: int = 1,
+) -> np.ndarray:
+    """Run one pass of the numba kernel on a float32 plane of 0-255 tones, in place.
+
+    The low-level entry point (no tone mapping, no copies, no validation of
+    ``tones``): ``tones`` must be a C-contiguous 2-D float32 array.
+    ``counts``, if given, is an int64 array of ``len(DIAGNOSTIC_FIELDS)`` that
+    the pass increments. With ``scan="checkerboard"``, ``workers`` threads
+    share each colour's rows. Returns ``counts``.
+    """
+    from .core._kernel import labyrinth_pass  # numba is imported on first use only
+
+    if counts is None:
+        counts = np.zeros(len(DIAGNOSTIC_FIELDS), dtype=np.int64)
+    if has_nonfinite is None:
+        has_nonfinite = not np.isfinite(tones).all()
+    arguments = (tones, *_kernel_arguments(parameters), np.uint64(seed), plane_index, pass_index)
+    options = (*_kernel_options(parameters), has_nonfinite)
+    if parameters.scan != "checkerboard":
+        labyrinth_pass(*arguments, *options, counts)
+        return counts
+    height = tones.shape[0]
+    bands = np.linspace(0, height, min(workers, max(1, height // 2)) + 1).astype(int)
+    # one cache line per band: neighbouring threads never write the same line
+    stride = max(len(DIAGNOSTIC_FIELDS), _CACHE_LINE // counts.itemsize)
+    band_counts = np.zeros((len(bands) - 1, stride), dtype=np.int64)
+    for colour in range(4):  # the pixels of one colour are independent of each other
+        if len(bands) == 2:
+            labyrinth_pass(*arguments, *options, band_counts[0], colour, 0, height)
+            continue
+        with ThreadPoolExecutor(len(bands) - 1) as pool:
+            for future in [
+                pool.submit(
+                    labyrinth_pass, *arguments, *options, band_counts[k], colour, start, stop
+                )
+                for k, (start, stop) in enumerate(zip(bands[:-1], bands[1:]))
+            ]:
+                future.result()
+    counts += band_counts[:, : len(DIAGNOSTIC_FIELDS)].sum(axis=0)
+    return counts
+
+
+@functools.lru_cache(maxsize=64)
+def _kernel_arguments(parameters: LabyrinthParameters) -> tuple[Any, ...]:
+    """Thresholds, range limits, T_inf, T_sup and max tries as the kernel takes them."""
+    range_bounds = np.array(parameters.tone_ranges[1:-1], dtype=np.float64)
+    tone_low = np.array([low for low, _ in parameters.tones], dtype=np.float64)
+    tone_high = np.array([high for _, high in parameters.tones], dtype=np.float64)
+    return (
+        parameters.mean_threshold,
+        parameters.variance_threshold,
+        range_bounds,
+        tone_low,
+        tone_high,
+        parameters.max_tries,
+    )
+
+
+@functools.lru_cache(maxsize=64)
+def _kernel_options(parameters: LabyrinthParameters) -> tuple[Any, ...]:
+    """The options' codes in the kernel's order (``codes.OPTION_CODES``)."""
+    code = {name: codes[getattr(parameters, name)] for name, codes in OPTION_CODES.items()}
+    return (
+        code["border"],
+        code["variance_ratio"],
+        code["variance_action"],
+        code["condition_order"],
+        code["on_exhausted"],
+        parameters.include_centre,
+        code["scan"],
+    )
+
+
+def write_changes(
+    target: np.ndarray, initial: np.ndarray, work: np.ndarray, scale: ToneScale
+) -> None:
+    """Map back into ``target`` (holding the source values) the tones that changed."""
+    changed = initial.view(np.uint32) != work.view(np.uint32)
+    target[changed] = scale.from_tones(work[changed], target.dtype)

@@ -1,0 +1,327 @@
+"""Numba kernel: one pass of the labyrinthine tiling over one 2-D float32 plane.
+
+The kernel knows nothing of dtypes, tone scaling, presets or napari: it takes a
+C-contiguous float32 plane already on the paper's 0-255 tone scale and updates
+it in place. Every option is an integer code named in ``codes.py`` (the
+parameter table in ``parameters.py`` maps the options' names to them); numba
+folds those module-level names at compile time. ``counts`` is indexed by the
+diagnostic codes of ``codes.py`` (KEPT_BY_MEAN, ..., SKIPPED).
+
+Arithmetic is float64 in a fixed order and without ``fastmath`` so that
+``_reference.py``, a plain-Python reading of the same algorithm, agrees with
+this kernel bit for bit.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .codes import (
+    INSIDE,
+    KEEP,
+    KEPT_BY_MEAN,
+    LEAVE,
+    LEFT_BY_VARIANCE,
+    MIRROR,
+    NEAREST,
+    OUT_OF_TRIES,
+    PUSH_IN_RANGE,
+    PUSHED,
+    REDRAWN,
+    SERPENTINE,
+    SKIPPED,
+    SQRT_V_OVER_N,
+    VARIANCE_FIRST,
+)
+
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX2 = np.uint64(0x94D049BB133111EB)
+_UNIT = 1.0 / 9007199254740992.0  # 2**-53
+
+
+@njit(inline="always")
+def _mix(x):
+    """SplitMix64 finaliser: a bijective 64-bit hash (Steele et al., 2014)."""
+    z = x + _GOLDEN
+    z = (z ^ (z >> np.uint64(30))) * _MIX1
+    z = (z ^ (z >> np.uint64(27))) * _MIX2
+    return z ^ (z >> np.uint64(31))
+
+
+@njit(cache=True)
+def stream_key(seed, plane_index, pass_index):
+    """Key of the random stream of one plane in one pass."""
+    key = _mix(np.uint64(seed))
+    key = _mix(key ^ np.uint64(plane_index))
+    return _mix(key ^ np.uint64(pass_index))
+
+
+@njit(inline="always")
+def _uniform(pixel_key, try_index):
+    """R of Eq. 3: a float64 in [0, 1) from the pixel's key and the try number."""
+    return np.float64(_mix(pixel_key ^ np.uint64(try_index)) >> np.uint64(11)) * _UNIT
+
+
+@njit(inline="always")
+def _ratio(numerator, mean):
+    """``numerator / mean`` with the M = 0 guard: 0 if the numerator is 0, else inf."""
+    if mean > 0.0:
+        return numerator / mean
+    if numerator == 0.0:
+        return 0.0
+    return math.inf
+
+
+@njit(inline="always")
+def _tone_range(g, range_bounds, n_ranges):
+    """Index i of the tone range that holds g (Eq. 3); tones below L_inf^1 are in the first."""
+    i = 0
+    while i < n_ranges - 1 and g >= range_bounds[i]:
+        i += 1
+    return i
+
+
+@njit(inline="always")
+def _border_index(i, n, border):
+    """Index of a neighbour coordinate ``i`` on an axis of length ``n``; -1 if dropped."""
+    if 0 <= i < n:
+        return i
+    if border == INSIDE:  # neighbours outside the image do not count
+        return -1
+    if border == MIRROR:  # d c b | a b c d | c b a
+        if n == 1:
+            return 0
+        return -i if i < 0 else 2 * n - 2 - i
+    if border == NEAREST:  # a a | a b c d | d d
+        return 0 if i < 0 else n - 1
+    return i % n  # wrap
+
+
+@njit(inline="always")
+def _interior_sum(plane, y, x):
+    """Sum of the 8 neighbours of an interior pixel, row-major, as float64 (Eq. 1)."""
+    total = np.float64(plane[y - 1, x - 1])
+    total += np.float64(plane[y - 1, x])
+    total += np.float64(plane[y - 1, x + 1])
+    total += np.float64(plane[y, x - 1])
+    total += np.float64(plane[y, x + 1])
+    total += np.float64(plane[y + 1, x - 1])
+    total += np.float64(plane[y + 1, x])
+    total += np.float64(plane[y + 1, x + 1])
+    return total
+
+
+@njit(inline="always")
+def _interior_squares(plane, y, x, mean):
+    """Sum of squared deviations from ``mean`` of the 8 neighbours, row-major (Eq. 1)."""
+    total = 0.0
+    for dy in range(-1, 2):
+        for dx in range(-1, 2):
+            if dy != 0 or dx != 0:
+                deviation = np.float64(plane[y + dy, x + dx]) - mean
+                total += deviation * deviation
+    return total
+
+
+@njit(inline="always")
+def _gather(plane, y, x, border, neighbours):
+    """Collect the finite neighbours that count at a border or near a non-finite pixel.
+
+    Returns their number and their sum (row-major order, as ``_interior_sum``).
+    """
+    height, width = plane.shape
+    count = 0
+    total = 0.0
+    for dy in range(-1, 2):
+        yy = _border_index(y + dy, height, border)
+        if yy < 0:
+            continue
+        for dx in range(-1, 2):
+            if dy == 0 and dx == 0:
+                continue
+            xx = _border_index(x + dx, width, border)
+            if xx < 0:
+                continue
+            value = np.float64(plane[yy, xx])
+            if math.isfinite(value):
+                neighbours[count] = value
+                total += value
+                count += 1
+    return count, total
+
+
+@njit(inline="always")
+def _gathered_squares(neighbours, count, mean):
+    """Sum of squared deviations from ``mean`` of the first ``count`` gathered neighbours."""
+    total = 0.0
+    for k in range(count):
+        deviation = neighbours[k] - mean
+        total += deviation * deviation
+    return total
+
+
+@njit(inline="always")
+def _push(g, mean, mean_ratio, neighbour_sum, n, include_centre, pixel_key, action,
+          range_bounds, tone_low, tone_high, max_tries):  # fmt: skip
+    """Eq. 4's push: draws on g's side of M until one lies further from M than g.
+
+    Draws are in g's tone range (Eq. 3, ``PUSH_IN_RANGE``) or between M and
+    the end of the tone scale (``PUSH_FULL_SCALE``). Returns (pushed, draw).
+    """
+    n_ranges = tone_low.shape[0]
+    upward = g >= mean
+    if action == PUSH_IN_RANGE:
+        i = _tone_range(g, range_bounds, n_ranges)
+        low = max(mean, tone_low[i]) if upward else tone_low[i]
+        span = (tone_high[i] if upward else min(mean, tone_high[i])) - low
+    else:
+        low = mean if upward else tone_low[0]
+        span = (tone_high[n_ranges - 1] if upward else mean) - low
+    for attempt in range(max_tries):
+        draw = np.float32(low + _uniform(pixel_key, attempt) * span)
+        candidate = np.float64(draw)
+        draw_mean = (neighbour_sum + candidate) / n if include_centre else mean
+        beyond = candidate > draw_mean if upward else candidate < draw_mean
+        if beyond and _ratio(abs(candidate - draw_mean), draw_mean) > mean_ratio:
+            return True, draw
+    return False, np.float32(0.0)
+
+
+@njit(inline="always")
+def _redraw(g, mean, mean_threshold, neighbour_sum, n, include_centre, pixel_key,
+            range_bounds, tone_low, tone_high, max_tries):  # fmt: skip
+    """Eq. 3: draw tones in the range that holds g until one satisfies Eq. 2.
+
+    Returns (accepted, last draw); the last draw is 0 when ``max_tries`` is 0.
+    """
+    i = _tone_range(g, range_bounds, tone_low.shape[0])
+    low = tone_low[i]
+    width_i = tone_high[i] - low
+    draw = np.float32(0.0)
+    for attempt in range(max_tries):
+        draw = np.float32(low + _uniform(pixel_key, attempt) * width_i)
+        candidate = np.float64(draw)
+        draw_mean = (neighbour_sum + candidate) / n if include_centre else mean
+        if _ratio(abs(candidate - draw_mean), draw_mean) <= mean_threshold:
+            return True, draw
+    return False, draw
+
+
+@njit(cache=True, nogil=True)
+def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone_low, tone_high,
+                   max_tries, seed, plane_index, pass_index, border, variance_ratio,
+                   variance_action, condition_order, on_exhausted, include_centre, scan,
+                   has_nonfinite, counts, colour=-1, row_start=0, row_stop=-1):  # fmt: skip
+    """Run one pass of the algorithm over ``plane`` in place (Eq. 1-4).
+
+    Parameters
+    ----------
+    plane : (H, W) float32 C-contiguous array
+        Tones on the 0-255 scale; non-finite values never change and never count.
+    mean_threshold, variance_threshold : float
+        t of Eq. 2 and V of Eq. 4.
+    range_bounds, tone_low, tone_high : float64 arrays
+        Inner range limits L_sup^1 .. L_sup^(n-1) (below L_inf^1: the first
+        range; above L_sup^(n-1): the last), and T_inf^i, T_sup^i of Eq. 3.
+    max_tries : int
+        Draws of Eq. 3 before giving up.
+    seed, plane_index, pass_index : int
+        Select the random stream (see ``stream_key``).
+    border, variance_ratio, variance_action, condition_order, on_exhausted, scan : int
+        The options' codes (``codes.py``); ``include_centre`` is a bool.
+    has_nonfinite : bool
+        False promises an all-finite plane: interior pixels skip the checks.
+    counts : (6,) int64 array
+        Incremented at the diagnostic codes (``codes.KEPT_BY_MEAN``, ...).
+    colour, row_start, row_stop : int, optional
+        colour -1 scans every pixel in the order of ``scan``; 0-3 only the
+        pixels with ``(y % 2, x % 2) == (colour // 2, colour % 2)``, which are
+        not neighbours of each other, so bands of rows ``[row_start,
+        row_stop)`` of one colour may run on threads at once (no GIL held).
+    """
+    height, width = plane.shape
+    key = stream_key(seed, plane_index, pass_index)
+    neighbours = np.empty(8, dtype=np.float64)
+    variance_first = condition_order == VARIANCE_FIRST
+    if row_stop < 0:
+        row_stop = height
+    # A checkerboard colour c holds the pixels with (y mod 2, x mod 2) =
+    # (c // 2, c % 2): no two of them are neighbours, so they can be updated
+    # in any order, by several threads at once, with the same result.
+    x_first = 0 if colour < 0 else colour & 1
+    x_step = 1 if colour < 0 else 2
+    columns = (width - x_first + x_step - 1) // x_step
+    for y in range(row_start, row_stop):
+        if colour >= 0 and (y & 1) != (colour >> 1):
+            continue
+        reverse = scan == SERPENTINE and (y & 1) == 1
+        interior_row = not has_nonfinite and 0 < y < height - 1
+        for step in range(columns):
+            x = width - 1 - step if reverse else x_first + step * x_step
+            g = np.float64(plane[y, x])
+            if not math.isfinite(g):
+                counts[SKIPPED] += 1
+                continue
+            # Eq. 1 over the 8 nearest and next-nearest neighbours: interior
+            # pixels of an all-finite plane (the common, speed-critical case)
+            # read them straight from the plane, the others gather them.
+            interior = interior_row and 0 < x < width - 1
+            if interior:
+                count, neighbour_sum = 8, _interior_sum(plane, y, x)
+            else:
+                count, neighbour_sum = _gather(plane, y, x, border, neighbours)
+                if count == 0:
+                    counts[SKIPPED] += 1
+                    continue
+            n = count + 1 if include_centre else count
+            mean = (neighbour_sum + g) / n if include_centre else neighbour_sum / n
+
+            # Eq. 2 decides first unless the order is variance-first.
+            mean_ratio = _ratio(abs(g - mean), mean)
+            if mean_ratio <= mean_threshold and not variance_first:
+                counts[KEPT_BY_MEAN] += 1
+                continue
+
+            # Eq. 4: the variance condition.
+            if interior:
+                squares = _interior_squares(plane, y, x, mean)
+            else:
+                squares = _gathered_squares(neighbours, count, mean)
+            if include_centre:
+                squares += (g - mean) * (g - mean)
+            variance = squares / n
+            spread = math.sqrt(variance / n if variance_ratio == SQRT_V_OVER_N else variance)
+            if _ratio(spread, mean) > variance_threshold:
+                if variance_action == LEAVE:
+                    counts[LEFT_BY_VARIANCE] += 1
+                    continue
+                pushed, draw = _push(
+                    g, mean, mean_ratio, neighbour_sum, n, include_centre,
+                    _mix(key ^ np.uint64(y * width + x)), variance_action,
+                    range_bounds, tone_low, tone_high, max_tries,
+                )  # fmt: skip
+                if pushed:
+                    plane[y, x] = draw
+                    counts[PUSHED] += 1
+                else:
+                    counts[LEFT_BY_VARIANCE] += 1
+                continue
+            if mean_ratio <= mean_threshold:
+                counts[KEPT_BY_MEAN] += 1
+                continue
+
+            # Eq. 3: draws in the tone range of g until one satisfies Eq. 2.
+            accepted, draw = _redraw(
+                g, mean, mean_threshold, neighbour_sum, n, include_centre,
+                _mix(key ^ np.uint64(y * width + x)), range_bounds, tone_low, tone_high, max_tries,
+            )  # fmt: skip
+            if accepted:
+                plane[y, x] = draw
+                counts[REDRAWN] += 1
+            else:
+                counts[OUT_OF_TRIES] += 1
+                if on_exhausted != KEEP and max_tries > 0:
+                    plane[y, x] = draw
+

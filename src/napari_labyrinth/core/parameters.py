@@ -1,0 +1,519 @@
+"""The algorithm's parameters: one table, one validated immutable set per rendering.
+
+Each field of :class:`LabyrinthParameters` carries its :class:`Parameter`
+entry, written once: type, the paper's value, bounds or choices, label,
+equation and a one-line doc. Validation, the presets, the command line's flags
+and ``--set``/``--sweep`` parsing, the widget's form and tooltips, the
+metadata record and the kernel/oracle test grid are derived from it.
+
+Every point where the paper leaves a choice open is a named option, with the
+literal reading of the printed text as its ``paper`` value; see
+``docs/algorithm.md`` for the mapping of each option to the paper's words.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+from collections.abc import Mapping
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from .codes import DIAGNOSTIC_FIELDS, OPTION_CODES
+
+__all__ = [
+    "DIAGNOSTIC_FIELDS",
+    "PARAMETERS",
+    "PARAMETER_NAMES",
+    "SEED",
+    "SWEEPABLE",
+    "LabyrinthParameters",
+    "Parameter",
+    "equal_tone_ranges",
+    "make_parameters",
+]
+
+#: Default lower limit L_inf^1 of the first tone range ("a low value different
+#: from zero", Sec. 2); the last range ends at 255.
+LOWEST_TONE = 10.0
+
+#: The kinds of value a parameter takes.
+KINDS = ("float", "int", "choice", "bool", "tone_ranges", "tones", "seed")
+
+
+def format_value(value: Any) -> str:
+    """A parameter value in words (layer names, help): ``0.04``, ``true``, ``inside``."""
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+@dataclasses.dataclass(frozen=True)
+class Parameter:
+    """One entry of the parameter table.
+
+    Attributes
+    ----------
+    name : str
+        The keyword (``variance_threshold``).
+    kind : {"float", "int", "choice", "bool", "tone_ranges", "tones", "seed"}
+        What values it takes; says how it is validated and parsed from text.
+    paper : object
+        Its value in the literal reading of the paper (the ``"paper"`` preset).
+    label : str
+        Short label for forms (``"variance threshold V"``).
+    equation : str
+        The paper's equation it belongs to (``"Eq. 4"``), or its section.
+    doc : str
+        One line: what it means.
+    low, high : int or float or None
+        Inclusive bounds of a number (of the count, for ``tone_ranges``);
+        None: unbounded (floats must still be finite).
+    choices : tuple of str, optional
+        The options of a ``"choice"``.
+    reading : bool
+        A point the paper leaves open (the widget's advanced section).
+    symbol : str, optional
+        The paper's letter, in layer names (``"V"``).
+    """
+
+    name: str
+    kind: str
+    paper: Any
+    label: str
+    equation: str
+    doc: str
+    low: float | None = None
+    high: float | None = None
+    choices: tuple[str, ...] | None = None
+    reading: bool = False
+    symbol: str | None = None
+
+    @property
+    def type_text(self) -> str:
+        """The type as numpydoc writes it in a Parameters section."""
+        if self.kind == "choice":
+            return "{" + ", ".join(f'"{choice}"' for choice in self.choices) + "}"
+        return {
+            "float": "float",
+            "int": "int",
+            "seed": "int",
+            "bool": "bool",
+            "tone_ranges": "int or sequence of float",
+            "tones": "sequence of (float, float)",
+        }[self.kind]
+
+    @property
+    def bounds_text(self) -> str:
+        """The allowed values in words, for messages and help."""
+        if self.kind == "choice":
+            return "one of " + ", ".join(map(repr, self.choices))
+        if self.kind == "bool":
+            return "True or False"
+        if self.low is not None and self.high is not None:
+            high = "2**64 - 1" if self.kind == "seed" else f"{self.high:g}"
+            return f"between {self.low:g} and {high}"
+        if self.low is not None:
+            return f">= {self.low:g}"
+        return "any value"
+
+    @property
+    def tooltip(self) -> str:
+        """The doc line with the equation and the paper's value, for forms and help."""
+        paper = "" if self.paper is None else f" Paper: {format_value(self.paper)}."
+        where = f"{self.symbol} of {self.equation}" if self.symbol else self.equation
+        return f"{where}: {self.doc}.{paper}"
+
+    def validate(self, value: Any) -> Any:
+        """``value`` checked and normalised; TypeError or ValueError naming the parameter."""
+        return _VALIDATORS[self.kind](self, value)
+
+    def parse(self, text: str) -> Any:
+        """A value typed as text (command line, widget), converted and validated.
+
+        Raises
+        ------
+        ValueError
+            Naming the parameter and what it expects.
+        """
+        text = text.strip()
+        try:
+            if self.kind in ("int", "seed") or (self.kind == "tone_ranges" and "," not in text):
+                value: Any = int(text)
+            elif self.kind == "tone_ranges":
+                value = [float(part) for part in text.split(",")]
+            elif self.kind == "float":
+                value = float(text)
+            elif self.kind == "bool":
+                value = {"true": True, "yes": True, "1": True}.get(text.lower())
+                if value is None and text.lower() not in ("false", "no", "0"):
+                    raise ValueError
+                value = bool(value)
+            elif self.kind == "choice":
+                value = text
+            else:
+                raise ValueError(f"{self.name} cannot be given as text")
+        except ValueError as exc:
+            if str(exc):
+                raise
+            raise ValueError(f"{self.name} must be {self.expected}; got {text!r}") from None
+        try:
+            return self.validate(value)
+        except TypeError as exc:
+            raise ValueError(str(exc)) from None
+
+    @property
+    def expected(self) -> str:
+        """What a text value must be, in words."""
+        return {
+            "float": "a number",
+            "int": "a whole number",
+            "seed": "a whole number",
+            "bool": "true or false",
+            "tone_ranges": "a count of ranges or comma-separated limits",
+            "tones": "pairs of tones",
+        }.get(self.kind) or " or ".join(self.choices)
+
+
+def _entry(**spec: Any) -> Any:
+    """A dataclass field carrying its table entry (the name is filled in below)."""
+    return dataclasses.field(metadata={"parameter": Parameter(name="", **spec)})
+
+
+def _choices(name: str) -> tuple[str, ...]:
+    return tuple(OPTION_CODES[name])
+
+
+@dataclasses.dataclass(frozen=True)
+class LabyrinthParameters:
+    mean_threshold: float = _entry(
+        kind="float",
+        paper=0.12,
+        low=0.0,
+        label="mean threshold t",
+        symbol="t",
+        equation="Eq. 2",
+        doc="g is kept when |g - M| / M <= t, M being the mean of its 8 neighbours",
+    )
+    variance_threshold: float = _entry(
+        kind="float",
+        paper=0.50,
+        low=0.0,
+        label="variance threshold V",
+        symbol="V",
+        equation="Eq. 4",
+        doc=(
+            "where the variance ratio R2 exceeds V, g is left as it is (or pushed away "
+            "from M); the labyrinth appears only in a narrow range of V (Fig. 3)"
+        ),
+    )
+    tone_ranges: tuple[float, ...] = _entry(
+        kind="tone_ranges",
+        paper=3,
+        low=1,
+        high=255,
+        label="tone ranges",
+        equation="Eq. 3",
+        doc=(
+            "A count of equal tone ranges from a low non-zero tone (10) to 255, or the "
+            "limits L_inf^1 < L_sup^1 = L_inf^2 < ... <= 255; g* is drawn in the range of g"
+        ),
+    )
+    tones: tuple[tuple[float, float], ...] = _entry(
+        kind="tones",
+        paper=None,
+        label="tones",
+        equation="Eq. 3",
+        doc="(T_inf^i, T_sup^i) of each range; None: T = L (setting tone_ranges resets them)",
+    )
+    max_tries: int = _entry(
+        kind="int",
+        paper=10,
+        low=0,
+        high=10_000,
+        label="max tries",
+        equation="Eq. 3",
+        doc="Draws of Eq. 3 per pixel before giving up (the paper gives no number)",
+    )
+    passes: int = _entry(
+        kind="int",
+        paper=1,
+        low=0,
+        high=1000,
+        label="passes",
+        equation="Fig. 4",
+        doc="Passes over the image; Fig. 4 iterates the algorithm to enhance edges",
+    )
+    border: str = _entry(
+        kind="choice",
+        paper="inside",
+        choices=_choices("border"),
+        reading=True,
+        label="border",
+        equation="Eq. 1",
+        doc=(
+            "Neighbours of border pixels: only those inside the image (N is their number), "
+            "or completed as the scipy.ndimage modes of the same names"
+        ),
+    )
+    variance_ratio: str = _entry(
+        kind="choice",
+        paper="sqrt(V/N)/M",
+        choices=_choices("variance_ratio"),
+        reading=True,
+        label="variance ratio",
+        equation="Eq. 4",
+        doc="R2: sqrt(V/N)/M as printed, or sqrt(V)/M (the coefficient of variation)",
+    )
+    variance_action: str = _entry(
+        kind="choice",
+        paper="leave",
+        choices=_choices("variance_action"),
+        reading=True,
+        label="variance action",
+        equation="Eq. 4",
+        doc=(
+            "Where Eq. 4 holds: leave g as printed, or push it further from M with draws on "
+            "its side of M, in its tone range or up to the end of the tone scale"
+        ),
+    )
+    condition_order: str = _entry(
+        kind="choice",
+        paper="mean_first",
+        choices=_choices("condition_order"),
+        reading=True,
+        label="condition order",
+        equation="Eq. 2, 4",
+        doc="Which condition decides first: Eq. 2 (as printed) or Eq. 4",
+    )
+    on_exhausted: str = _entry(
+        kind="choice",
+        paper="keep",
+        choices=_choices("on_exhausted"),
+        reading=True,
+        label="on exhausted",
+        equation="Eq. 3",
+        doc="What a pixel becomes when no draw satisfies Eq. 2: it keeps g, or the last draw",
+    )
+    include_centre: bool = _entry(
+        kind="bool",
+        paper=False,
+        reading=True,
+        label="include centre",
+        equation="Eq. 1",
+        doc="Whether the pixel joins its own M and V (Eq. 1 sums over the neighbours only)",
+    )
+    scan: str = _entry(
+        kind="choice",
+        paper="raster",
+        choices=_choices("scan"),
+        reading=True,
+        label="scan",
+        equation="Sec. 2",
+        doc=(
+            "Order of the in-place update from the top-left corner: rows left to right, odd "
+            "rows right to left, or (not the paper's order) the four checkerboard colours "
+            "in turn, which lets one plane use every core"
+        ),
+    )
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain-Python dict (JSON-serialisable) of every parameter."""
+        out = dataclasses.asdict(self)
+        out["tone_ranges"] = list(self.tone_ranges)
+        out["tones"] = [list(pair) for pair in self.tones]
+        return out
+
+
+#: The table: every parameter of the algorithm, in the order of the fields.
+PARAMETERS: Mapping[str, Parameter] = MappingProxyType(
+    {
+        field.name: dataclasses.replace(field.metadata["parameter"], name=field.name)
+        for field in dataclasses.fields(LabyrinthParameters)
+    }
+)
+
+#: Parameter names a preset or a caller may set.
+PARAMETER_NAMES = tuple(PARAMETERS)
+
+#: The seed of the random draws: not a parameter of the algorithm, but set beside them.
+SEED = Parameter(
+    name="seed",
+    kind="seed",
+    paper=None,
+    low=0,
+    high=2**64 - 1,
+    label="seed",
+    equation="Eq. 3",
+    doc=(
+        "Seed of the random draws R: the result is a pure function of the image, the "
+        "parameters and the seed"
+    ),
+)
+
+#: What a sweep may vary: every parameter that has a value in one word, and the seed.
+SWEEPABLE: Mapping[str, Parameter] = MappingProxyType(
+    {name: p for name, p in PARAMETERS.items() if p.kind != "tones"} | {"seed": SEED}
+)
+
+
+def _attributes_section() -> str:
+    lines = []
+    for parameter in PARAMETERS.values():
+        lines.append(f"    {parameter.name} : {parameter.type_text}")
+        lines.append(f"        {parameter.tooltip}")
+    return "\n".join(lines)
+
+
+LabyrinthParameters.__doc__ = f"""A complete, validated set of parameters for one rendering.
+
+    Build one with :func:`make_parameters` (or ``napari_labyrinth.resolve_parameters``,
+    which starts from a preset). ``tone_ranges`` holds the n + 1 limits of the
+    n ranges and ``tones`` one ``(T_inf, T_sup)`` pair per range.
+
+    Attributes
+    ----------
+{_attributes_section()}
+    """
+
+
+def equal_tone_ranges(count: int) -> tuple[float, ...]:
+    """Limits of ``count`` equal tone ranges from ``LOWEST_TONE`` to 255 (Sec. 2)."""
+    return tuple(float(v) for v in np.linspace(LOWEST_TONE, 255.0, count + 1))
+
+
+def make_parameters(**values: Any) -> LabyrinthParameters:
+    """Validate ``values`` and build a :class:`LabyrinthParameters`.
+
+    ``tone_ranges`` may be a count of equal ranges or the sequence of limits;
+    ``tones=None`` means T = L (Eq. 3). Raises ValueError or TypeError naming
+    the offending parameter.
+    """
+    unknown = set(values) - set(PARAMETER_NAMES)
+    if unknown:
+        raise TypeError(f"unknown parameter(s): {', '.join(sorted(unknown))}")
+    missing = set(PARAMETER_NAMES) - set(values) - {"tones"}
+    if missing:
+        raise TypeError(f"missing parameter(s): {', '.join(sorted(missing))}")
+    checked = {
+        name: parameter.validate(values[name])
+        for name, parameter in PARAMETERS.items()
+        if parameter.kind != "tones"
+    }
+    checked["tones"] = _tones(values.get("tones"), checked["tone_ranges"])
+    return LabyrinthParameters(**checked)
+
+
+def _is_integer(value: Any) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
+
+
+def _is_real(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
+def _float(parameter: Parameter, value: Any) -> float:
+    if not _is_real(value):
+        raise TypeError(f"{parameter.name} must be a real number, got {value!r}")
+    value = float(value)
+    in_bounds = (parameter.low is None or value >= parameter.low) and (
+        parameter.high is None or value <= parameter.high
+    )
+    if not math.isfinite(value) or not in_bounds:
+        raise ValueError(
+            f"{parameter.name} must be finite and {parameter.bounds_text}, got {value!r}"
+        )
+    return value
+
+
+def _integer(parameter: Parameter, value: Any) -> int:
+    if not _is_integer(value):
+        raise TypeError(f"{parameter.name} must be an integer, got {value!r}")
+    value = int(value)
+    if (parameter.low is not None and value < parameter.low) or (
+        parameter.high is not None and value > parameter.high
+    ):
+        raise ValueError(f"{parameter.name} must be {parameter.bounds_text}, got {value}")
+    return value
+
+
+def _boolean(parameter: Parameter, value: Any) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{parameter.name} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def _choice(parameter: Parameter, value: Any) -> str:
+    if not isinstance(value, str) or value not in parameter.choices:
+        raise ValueError(f"{parameter.name} must be {parameter.bounds_text}; got {value!r}")
+    return value
+
+
+def _tone(name: str, value: Any) -> float:
+    if not _is_real(value):
+        raise TypeError(f"{name} must hold real numbers, got {value!r}")
+    value = float(value)
+    if not (0.0 <= value <= 255.0):
+        raise ValueError(f"{name} must lie on the 0-255 tone scale, got {value!r}")
+    return value
+
+
+def _tone_ranges(parameter: Parameter, value: Any) -> tuple[float, ...]:
+    if _is_integer(value):
+        if not parameter.low <= value <= parameter.high:
+            raise ValueError(
+                f"tone_ranges as a count must be {parameter.bounds_text}, got {value}"
+            )
+        return equal_tone_ranges(int(value))
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+        raise TypeError(
+            f"tone_ranges must be a count of ranges or a sequence of limits, got {value!r}"
+        )
+    limits = tuple(_tone("tone_ranges", v) for v in value)
+    if len(limits) < 2:
+        raise ValueError("tone_ranges needs at least two limits (one range)")
+    if any(b <= a for a, b in zip(limits, limits[1:])):
+        raise ValueError(f"tone_ranges must be strictly increasing, got {list(limits)}")
+    return limits
+
+
+def _tones(value: Any, limits: tuple[float, ...]) -> tuple[tuple[float, float], ...]:
+    if value is None:
+        return tuple(zip(limits[:-1], limits[1:]))
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+        raise TypeError(f"tones must be a sequence of (T_inf, T_sup) pairs, got {value!r}")
+    if len(value) != len(limits) - 1:
+        raise ValueError(
+            f"tones needs one (T_inf, T_sup) pair per tone range: "
+            f"{len(limits) - 1} range(s), got {len(value)} pair(s)"
+        )
+    pairs = []
+    for pair in value:
+        if isinstance(pair, (str, bytes)) or not hasattr(pair, "__len__") or len(pair) != 2:
+            raise ValueError(f"tones must be (T_inf, T_sup) pairs, got {pair!r}")
+        low, high = _tone("tones", pair[0]), _tone("tones", pair[1])
+        if high < low:
+            raise ValueError(f"tones pair must have T_inf <= T_sup, got {list(pair)}")
+        pairs.append((low, high))
+    return tuple(pairs)
+
+
+def _unvalidated_tones(parameter: Parameter, value: Any) -> Any:
+    return value  # checked against the tone ranges in make_parameters
+
+
+_VALIDATORS = {
+    "float": _float,
+    "int": _integer,
+    "seed": _integer,
+    "bool": _boolean,
+    "choice": _choice,
+    "tone_ranges": _tone_ranges,
+    "tones": _unvalidated_tones,
+}
+assert set(_VALIDATORS) == set(KINDS)

@@ -1,0 +1,117 @@
+"""The run generator: progress events, the result, and cancellation by closing it."""
+
+import threading
+
+import numpy as np
+import pytest
+from skimage import data
+
+from napari_labyrinth import (
+    Progress,
+    Result,
+    labyrinth,
+    labyrinth_stack,
+    labyrinth_steps,
+    labyrinth_sweep,
+)
+from napari_labyrinth import _engine
+
+
+@pytest.fixture(scope="module")
+def camera():
+    return data.camera()[::4, ::4].copy()
+
+
+def _drain(steps):
+    events = list(steps)
+    return events[:-1], events[-1]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_events_count_every_plane_pass_then_the_result(camera, workers):
+    stack = np.stack([camera, camera.T, camera[::-1]])
+    progress, result = _drain(labyrinth_steps(stack, passes=3, seed=4, workers=workers))
+    assert all(isinstance(event, Progress) for event in progress)
+    assert [event.done for event in progress] == list(range(1, 10))
+    assert {event.total for event in progress} == {9}
+    assert sorted((event.plane, event.pass_number) for event in progress) == [
+        (plane, pass_number) for plane in range(3) for pass_number in (1, 2, 3)
+    ]
+    assert isinstance(result, Result)
+    want, diagnostics = labyrinth(stack, passes=3, seed=4, return_diagnostics=True)
+    np.testing.assert_array_equal(result.image, want)
+    np.testing.assert_array_equal(result.diagnostics, diagnostics)
+
+
+def test_stack_and_sweep_modes_give_what_the_functions_give(camera):
+    *_, stack = labyrinth_steps(camera, "stack", passes=2)
+    np.testing.assert_array_equal(stack.image, labyrinth_stack(camera, passes=2))
+    events = list(labyrinth_steps(camera, "sweep", parameter="passes", values=[1, 3]))
+    assert [event.run for event in events[:-1]] == [0, 1, 1, 1]
+    assert events[-2].total == 4
+    np.testing.assert_array_equal(
+        events[-1].image, labyrinth_sweep(camera, "passes", [1, 3])
+    )
+    assert len(events[-1].diagnostics) == 2
+
+
+def test_rgba_progress_counts_only_the_rendered_planes(camera):
+    rgba = np.dstack([camera, camera, camera, np.full_like(camera, 7)])
+    progress, result = _drain(labyrinth_steps(rgba, passes=2, channel_axis=-1))
+    assert progress[-1].done == progress[-1].total == 6  # alpha is not rendered
+    np.testing.assert_array_equal(result.image[..., 3], rgba[..., 3])
+
+
+def test_bad_arguments_are_refused_at_the_call_not_at_the_first_step(camera):
+    with pytest.raises(ValueError, match="passes"):
+        labyrinth_steps(camera, passes=-1)
+    with pytest.raises(ValueError, match="mode"):
+        labyrinth_steps(camera, "film")
+    with pytest.raises(TypeError, match="sweep"):
+        labyrinth_steps(camera, parameter="passes", values=[1])
+    with pytest.raises(TypeError, match="unknown parameter"):
+        labyrinth_steps(camera, colour=3)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_closing_cancels_within_one_pass_and_leaves_nothing_running(
+    camera, workers, monkeypatch
+):
+    calls = []
+    real = _engine.run_pass
+
+    def counting_pass(*args, **kwargs):
+        calls.append(threading.current_thread().name)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(_engine, "run_pass", counting_pass)
+    stack = np.stack([camera] * 8)
+    steps = labyrinth_steps(stack, passes=4, workers=workers)
+    first = next(steps)
+    assert first.done == 1 and first.total == 32
+    steps.close()
+    started = len(calls)
+    # every thread stops after the pass it was running: at most one pass per worker
+    # beyond those already reported, far fewer than the 32 of the whole run
+    assert started <= 1 + 2 * workers
+    assert not [t for t in threading.enumerate() if t.name.startswith("napari-labyrinth")]
+    assert len(calls) == started  # nothing runs after close() returned
+    with pytest.raises(StopIteration):
+        next(steps)
+
+
+def test_an_error_in_a_plane_reaches_the_caller_and_stops_the_pool(camera, monkeypatch):
+    def failing_pass(*args, **kwargs):
+        raise MemoryError("no room")
+
+    monkeypatch.setattr(_engine, "run_pass", failing_pass)
+    with pytest.raises(MemoryError, match="no room"):
+        list(labyrinth_steps(np.stack([camera] * 4), workers=2))
+    assert not [t for t in threading.enumerate() if t.name.startswith("napari-labyrinth")]
+
+
+def test_dask_input_yields_only_the_lazy_result(camera):
+    da = pytest.importorskip("dask.array")
+    events = list(labyrinth_steps(da.from_array(np.stack([camera, camera]))))
+    assert len(events) == 1 and isinstance(events[0], Result)
+    assert isinstance(events[0].image, da.Array) and events[0].diagnostics is None
