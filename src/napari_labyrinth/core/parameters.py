@@ -40,6 +40,9 @@ __all__ = [
 #: from zero", Sec. 2); the last range ends at 255.
 LOWEST_TONE = 10.0
 
+#: Words a boolean may be typed as.
+_BOOLEAN_WORDS = {"true": True, "yes": True, "1": True, "false": False, "no": False, "0": False}
+
 #: The kinds of value a parameter takes.
 KINDS = ("float", "int", "choice", "bool", "tone_ranges", "tones", "seed")
 
@@ -134,7 +137,10 @@ class Parameter:
         return _VALIDATORS[self.kind](self, value)
 
     def parse(self, text: str) -> Any:
-        """A value typed as text (command line, widget), converted and validated.
+        """A value typed as text (command line, widget), converted and checked.
+
+        The value keeps the form it was given in (a ``tone_ranges`` count
+        stays a count), as a caller would pass it to the API.
 
         Raises
         ------
@@ -142,6 +148,8 @@ class Parameter:
             Naming the parameter and what it expects.
         """
         text = text.strip()
+        if self.kind == "tones":
+            raise ValueError(f"{self.name} cannot be given as text")
         try:
             if self.kind in ("int", "seed") or (self.kind == "tone_ranges" and "," not in text):
                 value: Any = int(text)
@@ -150,22 +158,16 @@ class Parameter:
             elif self.kind == "float":
                 value = float(text)
             elif self.kind == "bool":
-                value = {"true": True, "yes": True, "1": True}.get(text.lower())
-                if value is None and text.lower() not in ("false", "no", "0"):
-                    raise ValueError
-                value = bool(value)
-            elif self.kind == "choice":
-                value = text
+                value = _BOOLEAN_WORDS[text.lower()]
             else:
-                raise ValueError(f"{self.name} cannot be given as text")
-        except ValueError as exc:
-            if str(exc):
-                raise
+                value = text
+        except (ValueError, KeyError):
             raise ValueError(f"{self.name} must be {self.expected}; got {text!r}") from None
         try:
-            return self.validate(value)
+            self.validate(value)
         except TypeError as exc:
             raise ValueError(str(exc)) from None
+        return tuple(value) if isinstance(value, list) else value
 
     @property
     def expected(self) -> str:

@@ -1,0 +1,128 @@
+"""The parameter table: one fact per parameter, and everything derived from it agrees."""
+
+import inspect
+import re
+
+import pytest
+
+from napari_labyrinth import PARAMETERS, PRESETS, labyrinth
+from napari_labyrinth.core.codes import OPTION_CODES
+from napari_labyrinth.core.parameters import (
+    SEED,
+    SWEEPABLE,
+    LabyrinthParameters,
+    make_parameters,
+)
+
+
+def _numpydoc_parameters(doc: str) -> dict[str, tuple[str, str]]:
+    """``{name: (type, description)}`` of a numpydoc Parameters section."""
+    section = doc.split("Parameters\n    ----------\n", 1)[1].split("\n\n    Returns", 1)[0]
+    entries = {}
+    for match in re.finditer(r"^    (\w+) : (.+)\n((?:        .*\n?)*)", section, re.M):
+        name, type_text, description = match.groups()
+        entries[name] = (type_text, " ".join(description.split()))
+    return entries
+
+
+def _references(equation: str) -> list[str]:
+    """``"Eq. 2, 4"`` -> ``["Eq. 2", "Eq. 4"]``."""
+    kind, numbers = equation.split(" ", 1)
+    return [f"{kind} {number.strip()}" for number in numbers.split(",")]
+
+
+def test_labyrinth_signature_has_every_parameter_keyword_only_defaulting_to_the_preset():
+    signature = inspect.signature(labyrinth)
+    for name in PARAMETERS:
+        assert name in signature.parameters, name
+        assert signature.parameters[name].kind is inspect.Parameter.KEYWORD_ONLY, name
+        assert signature.parameters[name].default is None, name
+
+
+@pytest.mark.parametrize("name", list(PARAMETERS))
+def test_labyrinth_docstring_agrees_with_the_table(name):
+    documented = _numpydoc_parameters(labyrinth.__doc__)
+    parameter = PARAMETERS[name]
+    type_text, description = documented[name]
+    assert type_text == f"{parameter.type_text}, optional"
+    for reference in _references(parameter.equation):
+        assert reference in description, (name, reference)
+
+
+def test_every_keyword_of_labyrinth_is_documented():
+    documented = _numpydoc_parameters(labyrinth.__doc__)
+    assert list(documented) == list(inspect.signature(labyrinth).parameters)
+
+
+def test_docstring_checker_sees_a_drift():
+    drifted = labyrinth.__doc__.replace('"serpentine", "checkerboard"}', '"serpentine"}')
+    type_text, _ = _numpydoc_parameters(drifted)["scan"]
+    assert type_text != f"{PARAMETERS['scan'].type_text}, optional"
+
+
+def test_choices_are_the_kernel_codes_names():
+    for name, codes in OPTION_CODES.items():
+        assert PARAMETERS[name].choices == tuple(codes)
+
+
+def test_the_paper_preset_is_the_table_paper_column():
+    assert dict(PRESETS["paper"]) == {name: p.paper for name, p in PARAMETERS.items()}
+    assert set(PRESETS["labyrinth"]) == set(PARAMETERS)
+
+
+def test_the_dataclass_docstring_lists_every_parameter_with_its_equation():
+    for name, parameter in PARAMETERS.items():
+        assert f"{name} : {parameter.type_text}" in LabyrinthParameters.__doc__
+    assert "t of Eq. 2" in PARAMETERS["mean_threshold"].tooltip
+    assert "Paper: 0.12." in PARAMETERS["mean_threshold"].tooltip
+
+
+@pytest.mark.parametrize(
+    "name,text,value",
+    [
+        ("mean_threshold", " 0.2 ", 0.2),
+        ("max_tries", "7", 7),
+        ("passes", "1000", 1000),
+        ("tone_ranges", "4", 4),
+        ("tone_ranges", "10, 100, 255", (10.0, 100.0, 255.0)),
+        ("include_centre", "Yes", True),
+        ("include_centre", "0", False),
+        ("border", "mirror", "mirror"),
+        ("seed", "18446744073709551615", 2**64 - 1),
+    ],
+)
+def test_text_values_parse_to_the_parameter_type(name, text, value):
+    parameter = SEED if name == "seed" else PARAMETERS[name]
+    parsed = parameter.parse(text)
+    assert parsed == value and type(parsed) is type(value)  # a count stays a count
+
+
+@pytest.mark.parametrize(
+    "name,text,match",
+    [
+        ("mean_threshold", "abc", "mean_threshold must be a number"),
+        ("mean_threshold", "-1", "mean_threshold must be finite and >= 0"),
+        ("passes", "1001", "passes must be between 0 and 1000"),
+        ("passes", "1.5", "passes must be a whole number"),
+        ("max_tries", "10001", "between 0 and 10000"),
+        ("border", "reflect", "border must be one of 'inside', 'mirror'"),
+        ("include_centre", "maybe", "include_centre must be true or false"),
+        ("tones", "1,2", "tones cannot be given as text"),
+        ("seed", "-1", "seed must be between 0 and 2\\*\\*64 - 1"),
+    ],
+)
+def test_bad_text_values_name_the_parameter_and_its_bounds(name, text, match):
+    parameter = SEED if name == "seed" else PARAMETERS[name]
+    with pytest.raises(ValueError, match=match):
+        parameter.parse(text)
+
+
+def test_bounds_hold_in_the_api():
+    base = dict(PRESETS["paper"])
+    with pytest.raises(ValueError, match="passes must be between 0 and 1000"):
+        make_parameters(**dict(base, passes=10**12))
+    make_parameters(**dict(base, passes=1000))
+
+
+def test_sweepable_is_every_one_word_parameter_and_the_seed():
+    assert list(SWEEPABLE) == [n for n in PARAMETERS if n != "tones"] + ["seed"]
