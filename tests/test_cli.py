@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from napari_labyrinth import __version__, labyrinth, labyrinth_stack, labyrinth_sweep
-from napari_labyrinth._io import read_image, write_image
+from napari_labyrinth.io import read_image, write_image
 from napari_labyrinth.cli import main
 
 RNG = np.random.default_rng(42)

@@ -21,7 +21,7 @@ psutil = pytest.importorskip("psutil")
 da = pytest.importorskip("dask.array")
 
 from napari_labyrinth import cli, labyrinth, labyrinth_stack
-from napari_labyrinth._io import read_image, write_image
+from napari_labyrinth.io import read_image, write_image
 
 from .test_cli_chunked import API_OPTIONS, OPTIONS, error_lines, store, textured
 

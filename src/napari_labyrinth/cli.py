@@ -11,7 +11,7 @@ imported only when a command needs them, so ``--help`` answers at once.
 Nothing here imports napari or Qt: the command runs without a display.
 
 zarr stores and large TIFF stacks are rendered lazily, block by block (see
-``_io.open_image`` and ``_io.write_array``), locally or on a
+``io.open_image`` and ``io.write_array``), locally or on a
 ``dask.distributed`` cluster (``--scheduler``).
 """
 
@@ -494,7 +494,7 @@ def _check_sweep(
 
 def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
     """The jobs, and the output directory to create (None when writing one file)."""
-    from ._io import image_format, zarr_root
+    from .io import image_format, zarr_root
 
     inputs = [Path(p) for p in args.inputs]
     output = Path(args.output)
@@ -542,7 +542,7 @@ def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
 
 def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
     """Refuse colliding outputs always, and existing files without --overwrite."""
-    from ._io import zarr_root
+    from .io import zarr_root
 
     inputs = {}
     for job in jobs:
@@ -590,7 +590,7 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     """
     from . import api
     from ._chunked import default_tone_limits, is_lazy
-    from ._io import image_format, open_image, release_files, write_array
+    from .io import image_format, open_image, release_files, write_array
 
     lazy = True if args.scheduler is not None else None
     image = open_image(job.input, lazy=lazy, channel_axis=args.channel_axis)
@@ -669,7 +669,7 @@ def _summary(done: int, total: int, failed: list[Path]) -> None:
 
 
 def _demo_command(args: argparse.Namespace) -> int:
-    from ._io import write_image
+    from .io import write_image
     from .api import labyrinth, labyrinth_stack
     from .samples import SAMPLES
 
@@ -770,7 +770,7 @@ def _isatty(stream) -> bool:
 
 def _describe(exc: BaseException, path: Path | str) -> str:
     """One line for an error about ``path``, without repeating the path."""
-    from ._io import ImageFileError
+    from .io import ImageFileError
 
     if isinstance(exc, ImageFileError):
         return _one_line(exc.reason)

@@ -1,4 +1,4 @@
-"""Reading and writing image files for the command line.
+"""Image files in and out: reading, atomic writing, zarr and TIFF stacks.
 
 TIFF files go through tifffile (any dtype, any number of dimensions); PNG,
 JPEG and BMP through imageio's pillow plugin; zarr stores (``.zarr``
