@@ -18,8 +18,8 @@ da = pytest.importorskip("dask.array")
 
 from napari_labyrinth import _chunked, labyrinth, labyrinth_stack, labyrinth_sweep
 from napari_labyrinth import io as file_io
-from napari_labyrinth.io import open_image, read_image, write_image
 from napari_labyrinth.cli import main
+from napari_labyrinth.io import open_image, read_image, write_image
 
 SHAPE = (6, 64, 64)
 OPTIONS = ["--passes", "2", "--seed", "7"]
