@@ -200,19 +200,24 @@ def _scheduler_address(text: str) -> str | int:
 
 
 def _sweep(text: str) -> tuple[str, list[Any]]:
-    name, sep, values = text.partition("=")
-    name = name.strip().replace("-", "_")
-    if not sep or not name or not values.strip():
-        raise argparse.ArgumentTypeError(f"expected PARAM=V1,V2,..., got {text!r}")
+    """``--sweep PARAM=V1,V2,...``: the parameter's name and its values."""
+    name, values = _split_assignment(text, "PARAM=V1,V2,...")
     return name, [_parse_value(v.strip()) for v in values.split(",")]
 
 
 def _assignment(text: str) -> tuple[str, Any]:
+    """``--set PARAM=VALUE``: the parameter's name and its value."""
+    name, value = _split_assignment(text, "PARAM=VALUE")
+    return name, _parse_value(value.strip())
+
+
+def _split_assignment(text: str, form: str) -> tuple[str, str]:
+    """The name (``-`` read as ``_``) and the text after ``=``; neither may be empty."""
     name, sep, value = text.partition("=")
     name = name.strip().replace("-", "_")
     if not sep or not name or not value.strip():
-        raise argparse.ArgumentTypeError(f"expected PARAM=VALUE, got {text!r}")
-    return name, _parse_value(value.strip())
+        raise argparse.ArgumentTypeError(f"expected {form}, got {text!r}")
+    return name, value
 
 
 def _parse_value(text: str) -> Any:
@@ -282,11 +287,9 @@ def _check_sweep(
     from ..parameters import PARAMETER_NAMES
 
     name, values = sweep
-    if name not in PARAMETER_NAMES + ("seed",):
-        raise ValueError(
-            f"--sweep: unknown parameter {name!r}; use one of "
-            f"{', '.join(PARAMETER_NAMES + ('seed',))}"
-        )
+    names = PARAMETER_NAMES + ("seed",)
+    if name not in names:
+        raise ValueError(f"--sweep: unknown parameter {name!r}; use one of {', '.join(names)}")
     if name in options:
         raise ValueError(f"--sweep varies {name}; do not also give it a value")
     for value in values:
