@@ -8,8 +8,8 @@ import sys
 import numpy as np
 import pytest
 
-from napari_labyrinth import _io
-from napari_labyrinth._io import ImageFileError, read_image, write_image
+from napari_labyrinth import io as file_io
+from napari_labyrinth.io import ImageFileError, read_image, write_image
 
 RNG = np.random.default_rng(0)
 
@@ -153,13 +153,13 @@ def test_refuses_to_overwrite_without_flag(tmp_path):
 
 def test_file_appearing_during_the_write_is_not_clobbered(tmp_path, monkeypatch):
     path = tmp_path / "out.tif"
-    real_write = _io._write
+    real_write = file_io._write
 
     def write_then_race(handle, *args):
         real_write(handle, *args)
         path.write_bytes(b"someone else")
 
-    monkeypatch.setattr(_io, "_write", write_then_race)
+    monkeypatch.setattr(file_io, "_write", write_then_race)
     with pytest.raises(FileExistsError):
         write_image(path, np.zeros((4, 4), np.uint8))
     assert path.read_bytes() == b"someone else"
@@ -188,7 +188,7 @@ def test_failed_overwrite_keeps_the_old_file(tmp_path, monkeypatch):
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(_io, "_write", interrupted)
+    monkeypatch.setattr(file_io, "_write", interrupted)
     with pytest.raises(KeyboardInterrupt):
         write_image(path, np.zeros((4, 4), np.uint8), overwrite=True)
     assert path.read_bytes() == before

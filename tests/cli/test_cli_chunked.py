@@ -16,10 +16,11 @@ import pytest
 zarr = pytest.importorskip("zarr")
 da = pytest.importorskip("dask.array")
 
-from napari_labyrinth import _io, labyrinth, labyrinth_stack, labyrinth_sweep
+from napari_labyrinth import io as file_io
+from napari_labyrinth import labyrinth, labyrinth_stack, labyrinth_sweep
 from napari_labyrinth import lazy as lazy_images
-from napari_labyrinth._io import open_image, read_image, write_image
 from napari_labyrinth.cli import main
+from napari_labyrinth.io import open_image, read_image, write_image
 
 SHAPE = (6, 64, 64)
 OPTIONS = ["--passes", "2", "--seed", "7"]
@@ -103,7 +104,7 @@ def test_zarr_to_tiff_and_tiff_to_zarr(tmp_path, monkeypatch):
     assert render(tmp_path / "in.tif", "-o", tmp_path / "small.zarr", *OPTIONS) == 0
     np.testing.assert_array_equal(read_image(tmp_path / "small.zarr"), expected)
     # ... a large one lazily, plane by plane
-    monkeypatch.setattr(_io, "LAZY_TIFF_BYTES", 0)
+    monkeypatch.setattr(file_io, "LAZY_TIFF_BYTES", 0)
     assert lazy_images.is_lazy(open_image(tmp_path / "in.tif"))
     assert render(tmp_path / "in.tif", "-o", tmp_path / "large.zarr", *OPTIONS) == 0
     np.testing.assert_array_equal(read_image(tmp_path / "large.zarr"), expected)
@@ -167,13 +168,13 @@ def test_lazy_tiff_output_is_written_plane_by_plane(tmp_path, monkeypatch):
     image = textured()
     store(tmp_path / "in.zarr", image)
     sizes = []
-    real = _io._write_contiguous
+    real = file_io._write_contiguous
 
     def spy(fd, offset, shape, itemsize, block, location):
         sizes.append(block.shape)
         real(fd, offset, shape, itemsize, block, location)
 
-    monkeypatch.setattr(_io, "_write_contiguous", spy)
+    monkeypatch.setattr(file_io, "_write_contiguous", spy)
     assert render(tmp_path / "in.zarr", "-o", tmp_path / "out.tif", *OPTIONS) == 0
     assert sizes == [(1, 64, 64)] * 6
     np.testing.assert_array_equal(
@@ -284,9 +285,9 @@ def test_failure_while_writing_leaves_nothing_and_keeps_the_old_store(
         calls.append(location)
         if len(calls) == 3:
             raise OSError(28, "No space left on device")
-        _io._cached_zarr_for_writing(path)[tuple(slice(*r) for r in location)] = block
+        file_io._cached_zarr_for_writing(path)[tuple(slice(*r) for r in location)] = block
 
-    monkeypatch.setattr(_io, "_write_zarr_block", broken)
+    monkeypatch.setattr(file_io, "_write_zarr_block", broken)
     argv = [tmp_path / "in.zarr", "-o", old, "--overwrite", *OPTIONS]
     assert render(*argv) == 1
     (line,) = error_lines(capsys.readouterr().err)

@@ -1,4 +1,4 @@
-"""Reading and writing image files for the command line.
+"""Image files in and out: reading, atomic writing, zarr and TIFF stacks.
 
 TIFF files go through tifffile (any dtype, any number of dimensions); PNG,
 JPEG and BMP through imageio's pillow plugin; zarr stores (``.zarr``
@@ -575,7 +575,7 @@ def write_array(
         return _write_zarr(
             path, array, overwrite=overwrite, plane_axes=plane_axes, progress=progress
         )
-    from ._chunked import is_lazy
+    from .lazy import is_lazy
 
     if not is_lazy(array):
         write_image(path, array, overwrite=overwrite)
@@ -584,7 +584,7 @@ def write_array(
             path, array, overwrite=overwrite, plane_axes=plane_axes, progress=progress
         )
     else:
-        from ._chunked import computing
+        from .lazy import computing
 
         _check_writable(path, kind, array, overwrite)
         with computing():
@@ -612,7 +612,7 @@ def _check_writable(path: Path, kind: str, array: Any, overwrite: bool) -> None:
 def _write_tiff_lazily(path: Path, array, *, overwrite, plane_axes, progress) -> None:
     import tifffile
 
-    from ._chunked import run_blocks
+    from .lazy import run_blocks
 
     _check_writable(path, "TIFF", array, overwrite)
     array = _native(array)
@@ -677,7 +677,7 @@ _SEEK_LOCK = threading.Lock()
 
 
 def _write_zarr(path: Path, array, *, overwrite, plane_axes, progress) -> Path:
-    from ._chunked import is_lazy, run_blocks
+    from .lazy import is_lazy, run_blocks
 
     if zarr_root(path) != (path, ""):
         raise ImageFileError(path, "a zarr output is a path ending in .zarr, not inside one")

@@ -20,8 +20,10 @@ zarr = pytest.importorskip("zarr")
 psutil = pytest.importorskip("psutil")
 da = pytest.importorskip("dask.array")
 
-from napari_labyrinth import cli, labyrinth, labyrinth_stack
-from napari_labyrinth._io import read_image, write_image
+from napari_labyrinth import labyrinth, labyrinth_stack
+from napari_labyrinth.cli import main
+from napari_labyrinth.cli import render as render_module
+from napari_labyrinth.io import read_image, write_image
 
 from .test_cli_chunked import API_OPTIONS, OPTIONS, error_lines, store, textured
 
@@ -90,7 +92,7 @@ def client(cluster):
 
 def render(*argv) -> int:
     with no_warnings():
-        return cli.main(["render", *map(str, argv)])
+        return main(["render", *map(str, argv)])
 
 
 def test_api_under_a_client_equals_local(client):
@@ -152,12 +154,12 @@ def test_cli_starts_and_stops_its_own_local_cluster(tmp_path):
 
 
 def test_unreachable_scheduler_is_one_line(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(cli, "SCHEDULER_TIMEOUT", 1)
+    monkeypatch.setattr(render_module, "SCHEDULER_TIMEOUT", 1)
     store(tmp_path / "in.zarr", textured((2, 16, 16), np.uint8))
     argv = [tmp_path / "in.zarr", "-o", tmp_path / "out.zarr", "--scheduler", "tcp://127.0.0.1:9"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # distributed may warn while it retries
-        code = cli.main(["render", *map(str, argv)])
+        code = main(["render", *map(str, argv)])
     assert code == 1
     err = capsys.readouterr().err
     (line,) = error_lines(err)

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from napari_labyrinth import __version__, labyrinth, labyrinth_stack, labyrinth_sweep
-from napari_labyrinth._io import read_image, write_image
 from napari_labyrinth.cli import main
+from napari_labyrinth.io import read_image, write_image
 
 RNG = np.random.default_rng(42)
 OPTIONS = ["--passes", "2", "--seed", "7"]

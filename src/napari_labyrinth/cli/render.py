@@ -1,0 +1,343 @@
+"""``napari-labyrinth render``: the outputs of the inputs, overwrite checks, the run.
+
+zarr stores and large TIFF stacks are rendered lazily, block by block, locally
+or on a ``dask.distributed`` cluster (``--scheduler``); other inputs in
+memory. In a batch a bad file is reported in one line and the others still
+render.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import functools
+import logging
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+from . import (
+    EXIT_FAILED,
+    EXIT_OK,
+    PROG,
+    Failed,
+    Refused,
+    UsageError,
+    describe,
+    make_directory,
+    path_key,
+)
+from .parser import render_options
+
+#: Formats read with imageio whose 3-D images are colour: channel_axis=-1 by default.
+_COLOUR_FORMATS = ("PNG", "JPEG", "BMP")
+
+#: Seconds to wait for a dask scheduler given by --scheduler.
+SCHEDULER_TIMEOUT = 10
+
+
+@dataclasses.dataclass
+class _Job:
+    """One input file and where its result goes."""
+
+    input: Path
+    output: Path | None
+    error: str | None = None  # known before reading, e.g. an unknown suffix
+
+
+class _FileError(Exception):
+    """A per-file problem found before reading the file."""
+
+
+def render_command(args: argparse.Namespace) -> int:
+    """Run ``napari-labyrinth render``; the exit code."""
+    options = render_options(args)
+    jobs, directory = _plan(args)
+    _check_overwrites(jobs, overwrite=args.overwrite)
+    if directory is not None:
+        make_directory(directory)
+    with _scheduler(args.scheduler):
+        return _render_jobs(jobs, args, options)
+
+
+@contextlib.contextmanager
+def _scheduler(address: str | int | None):
+    """Make a ``dask.distributed`` client the scheduler of dask for the run (None: local)."""
+    if address is None:
+        yield None
+        return
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise UsageError(
+            "--scheduler needs dask.distributed: pip install 'napari-labyrinth[dask]'"
+        ) from None
+    cluster = None
+    try:
+        if isinstance(address, int):
+            cluster = LocalCluster(
+                n_workers=address,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                silence_logs=logging.CRITICAL,  # a failed block is reported in one line
+                # no dashboard; the scheduler's HTTP endpoints on any free loopback port
+                scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
+            )
+            client = Client(cluster)
+        elif os.path.isfile(address):
+            client = Client(scheduler_file=address, timeout=SCHEDULER_TIMEOUT)
+        else:
+            client = Client(address, timeout=SCHEDULER_TIMEOUT)
+    except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address, ...
+        if cluster is not None:
+            cluster.close()
+        where = f"{address} local workers" if isinstance(address, int) else address
+        raise Failed(f"--scheduler: cannot connect to {where}: {describe(exc, '')}") from exc
+    try:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, Any]) -> int:
+    from tqdm import tqdm
+
+    from ..lazy import ComputeError
+
+    show = _isatty(sys.stderr)
+    rendered: list[Path] = []
+    failed: list[Path] = []
+    files_bar = tqdm(
+        total=len(jobs), desc="files", unit="file", file=sys.stderr, disable=not show, position=0
+    )
+    planes_bar = tqdm(
+        total=1,
+        desc="planes",
+        unit="pass",
+        file=sys.stderr,
+        disable=not show,
+        position=1,
+        leave=False,
+    )
+
+    def progress(done: int, total: int, unit: str = "pass") -> None:
+        planes_bar.unit = unit
+        planes_bar.total = total
+        planes_bar.n = done
+        planes_bar.refresh()
+
+    try:
+        for job in jobs:
+            files_bar.set_postfix_str(job.input.name, refresh=False)
+            planes_bar.reset(total=1)
+            try:
+                if job.error is not None:
+                    raise _FileError(job.error)
+                _render_one(job, args, options, progress if show else None)
+            except (
+                _FileError,
+                OSError,
+                ValueError,
+                TypeError,
+                MemoryError,
+                ComputeError,
+            ) as exc:
+                failed.append(job.input)
+                tqdm.write(
+                    f"{PROG}: error: {job.input}: {describe(exc, job.input)}", file=sys.stderr
+                )
+            else:
+                rendered.append(job.output)
+                tqdm.write(str(job.output), file=sys.stdout)
+            files_bar.update()
+    finally:
+        planes_bar.close()
+        files_bar.close()
+    _summary(len(rendered), len(jobs), failed)
+    return EXIT_FAILED if failed else EXIT_OK
+
+
+def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
+    """The jobs, and the output directory to create (None when writing one file)."""
+    from ..io import image_format, zarr_root
+
+    inputs = [Path(p) for p in args.inputs]
+    output = Path(args.output)
+    variant = "stack" if args.stack else "sweep" if args.sweep is not None else None
+    to_zarr = output.suffix.lower() == ".zarr"
+    if to_zarr and len(inputs) > 1:
+        raise UsageError(f"{output}: several inputs need an output directory, not a zarr store")
+    as_directory = not to_zarr and (
+        len(inputs) > 1
+        or output.is_dir()
+        or args.output.endswith(("/", os.sep))
+        or output.suffix == ""
+    )
+    if not as_directory:
+        try:
+            kind = image_format(output)
+        except ValueError as exc:
+            raise UsageError(f"output {describe(exc, output)}") from None
+        if variant is not None and kind not in ("TIFF", "ZARR"):
+            raise UsageError(
+                f"--{variant} writes a {variant} of images (more than 2-D); "
+                f"give a .tif or .zarr output, not {output.name}"
+            )
+        return [_Job(inputs[0], output)], None
+
+    if output.exists() and not output.is_dir():
+        raise UsageError(f"{output} is not a directory (several inputs need a directory)")
+    jobs = []
+    for path in inputs:
+        stem, suffix = path.stem, path.suffix
+        try:
+            kind = image_format(path)
+        except ValueError as exc:
+            jobs.append(_Job(path, None, error=describe(exc, path)))
+            continue
+        if kind == "ZARR":  # store.zarr or store.zarr/array: named after the store
+            store = zarr_root(path)[0]
+            stem, suffix = store.stem, store.suffix
+        elif variant is not None and kind != "TIFF":
+            suffix = ".tif"  # a stack or sweep does not fit in a PNG or JPEG
+        tail = f"_{variant}" if variant else ""
+        jobs.append(_Job(path, output / f"{stem}_labyrinth{tail}{suffix}"))
+    return jobs, output
+
+
+def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
+    """Refuse colliding outputs always, and existing files without --overwrite."""
+    from ..io import zarr_root
+
+    inputs = {}
+    for job in jobs:
+        inputs[path_key(job.input)] = job.input
+        store = zarr_root(job.input)
+        if store is not None:  # replacing the store would replace the input
+            inputs.setdefault(path_key(store[0]), job.input)
+    seen: dict[str, Path] = {}
+    refused = []
+    for job in jobs:
+        if job.output is None:
+            continue
+        key = path_key(job.output)
+        if key in seen:
+            raise UsageError(
+                f"{seen[key]} and {job.input} would both be rendered to {job.output}"
+            )
+        seen[key] = job.input
+        own_input = inputs.get(key) == job.input
+        if key in inputs and not own_input:
+            raise UsageError(f"the result of {job.input} would overwrite the input {inputs[key]}")
+        if not overwrite and os.path.lexists(job.output):
+            if own_input:
+                what = "the input file"
+            elif job.output.is_dir():
+                what = "an existing directory"
+            else:
+                what = "an existing file"
+            refused.append(
+                f"{job.output}: refusing to overwrite {what} (use --overwrite to replace it)"
+            )
+    if refused:
+        raise Refused(*refused)
+
+
+def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], progress) -> None:
+    """Read, render and write one input.
+
+    zarr stores, TIFF stacks over ``LAZY_TIFF_BYTES`` and, with --scheduler,
+    every TIFF are opened lazily: the rendering is a dask array written block
+    by block (progress counts planes written); the default tone limits of a
+    lazy input are found by ``default_tone_limits`` (exact, in bounded
+    memory) and reported. Other inputs are rendered in memory (progress
+    counts plane-passes).
+    """
+    from .. import api
+    from ..lazy import default_tone_limits, is_lazy
+    from ..io import image_format, open_image, release_files, write_array
+
+    lazy = True if args.scheduler is not None else None
+    image = open_image(job.input, lazy=lazy, channel_axis=args.channel_axis)
+    channel_axis = args.channel_axis
+    if (
+        channel_axis is None
+        and image_format(job.input) in _COLOUR_FORMATS
+        and image.ndim == 3
+        and image.shape[-1] in (2, 3, 4)
+    ):
+        channel_axis = -1
+    kwargs = dict(options, channel_axis=channel_axis)
+    chunked = is_lazy(image)
+    try:
+        if not chunked:
+            kwargs["progress"] = progress
+        elif "tone_limits" not in options and image.dtype.name != "uint8":
+            # a lazy rendering is only a graph: building one checks the input (dtype,
+            # shape, channel axis) before a scan of the whole data
+            api.labyrinth(image, **dict(kwargs, tone_limits=(0.0, 1.0)))
+            _note(
+                f"{job.input}: finding the default tone limits (0.5th and 99.5th "
+                "percentiles) in a pass over the data; --tone-limits skips it"
+            )
+            low, high = default_tone_limits(image, channel_axis)
+            kwargs["tone_limits"] = (low, high)
+            _note(f"{job.input}: tone limits {low!r} {high!r}")
+        if args.stack:
+            result = api.labyrinth_stack(image, **kwargs)
+        elif args.sweep is not None:
+            name, values = args.sweep
+            result = api.labyrinth_sweep(image, name, values, **kwargs)
+        else:
+            result = api.labyrinth(image, **kwargs)
+        extra = 1 if args.stack or args.sweep is not None else 0
+        plane_axes = _plane_axes(image.ndim, channel_axis, extra)
+        job.output.parent.mkdir(parents=True, exist_ok=True)
+        write_array(
+            job.output,
+            result,
+            overwrite=args.overwrite,
+            plane_axes=plane_axes,
+            progress=functools.partial(progress, unit="plane") if chunked and progress else None,
+        )
+    finally:
+        if chunked:
+            release_files()
+
+
+def _plane_axes(ndim: int, channel_axis: int | None, extra: int) -> tuple[int, ...]:
+    """Axes of one plane of a result with ``extra`` axes before those of the image."""
+    if channel_axis is None:
+        return (extra + ndim - 2, extra + ndim - 1)
+    channel = channel_axis % ndim
+    spatial = [axis for axis in range(ndim) if axis != channel][-2:]
+    return tuple(sorted(extra + axis for axis in (*spatial, channel)))
+
+
+def _note(message: str) -> None:
+    """An informational line on stderr (kept apart from progress bars)."""
+    from tqdm import tqdm
+
+    tqdm.write(f"{PROG}: {message}", file=sys.stderr)
+
+
+def _summary(done: int, total: int, failed: list[Path]) -> None:
+    noun = "file" if total == 1 else "files"
+    if failed:
+        names = ", ".join(str(path) for path in failed)
+        print(f"{PROG}: rendered {done} of {total} {noun}; failed: {names}", file=sys.stderr)
+    else:
+        print(f"{PROG}: rendered {done} {noun}", file=sys.stderr)
+
+
+def _isatty(stream) -> bool:
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):
+        return False
