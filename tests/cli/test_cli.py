@@ -530,3 +530,30 @@ def test_installed_console_script(tmp_path):
 
     usage = subprocess.run([script, "render"], capture_output=True, text=True, timeout=60)
     assert usage.returncode == 2 and "usage:" in usage.stderr
+
+
+def test_every_one_word_parameter_has_a_flag_with_its_defaults_in_help(capsys):
+    from napari_labyrinth.core.parameters import SWEEPABLE
+    from napari_labyrinth.core.presets import DEFAULT_PRESET
+
+    assert main(["render", "--help"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    for name, parameter in SWEEPABLE.items():
+        assert "--" + name.replace("_", "-") in out, name
+    assert f"Paper: 0.5. (default 0.04 with the {DEFAULT_PRESET} preset)" in out
+
+
+@pytest.mark.parametrize(
+    "flag,assignment",
+    [
+        (["--border", "mirror"], ["--set", "border=mirror"]),
+        (["--include-centre", "true"], ["--set", "include_centre=yes"]),
+        (["--tone-ranges", "10,120,255"], ["--set", "tone-ranges=10, 120, 255"]),
+    ],
+)
+def test_a_parameter_flag_and_set_give_the_same_rendering(tmp_path, flag, assignment):
+    write_image(tmp_path / "in.tif", gradient_image(np.uint16))
+    for name, extra in (("flag", flag), ("set", assignment)):
+        argv = ["render", str(tmp_path / "in.tif"), "-o", str(tmp_path / f"{name}.tif")]
+        assert main([*argv, "--passes", "1", *extra]) == 0
+    np.testing.assert_array_equal(read_image(tmp_path / "flag.tif"), read_image(tmp_path / "set.tif"))

@@ -20,7 +20,7 @@ from .demo import DEMO_STACK_PASSES
 def build_parser() -> argparse.ArgumentParser:
     """The parser of ``napari-labyrinth`` and its ``render`` and ``demo`` commands."""
     from .. import __version__
-    from ..presets import DEFAULT_PRESET
+    from ..core.presets import DEFAULT_PRESET
 
     parser = argparse.ArgumentParser(
         prog=PROG,
@@ -99,28 +99,29 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
     """Every flag of ``render`` that becomes a keyword argument of the API, in help order.
 
-    The preset, the algorithm's parameters (four flags of their own, the
-    others through ``--set``), the seed, the tone limits, the channel axis,
-    and ``--stack`` or ``--sweep``. ``render_options`` gathers them.
+    The preset, one flag per parameter of the table that takes one word
+    (``--set`` takes any of them as ``NAME=VALUE``), the seed, the tone
+    limits, the channel axis, and ``--stack`` or ``--sweep``. Values are kept
+    as text here and parsed by ``render_options``, so that a bad value gets
+    the table's one-line message.
     """
-    from ..presets import DEFAULT_PRESET, PRESETS
+    from ..core.parameters import PARAMETERS, SWEEPABLE, format_value
+    from ..core.presets import DEFAULT_PRESET, PRESETS
 
     render.add_argument(
         "--preset", choices=sorted(PRESETS), help=f"parameter set (default {DEFAULT_PRESET})"
     )
-    render.add_argument(
-        "--passes", type=int, metavar="N", help="passes over the image (--stack: default 4)"
-    )
-    render.add_argument("--seed", type=_seed, metavar="S", help="random seed (default 0)")
-    render.add_argument(
-        "--mean-threshold", type=float, metavar="T", help="t of Eq. 2 (paper: 0.12)"
-    )
-    render.add_argument(
-        "--variance-threshold", type=float, metavar="V", help="V of Eq. 4 (paper: 0.50)"
-    )
-    render.add_argument(
-        "--max-tries", type=int, metavar="K", help="draws of Eq. 3 per pixel (paper preset: 10)"
-    )
+    defaults = dict(PRESETS[DEFAULT_PRESET], seed=0)
+    for name, parameter in SWEEPABLE.items():
+        default = f"default {format_value(defaults[name])}"
+        if name in PARAMETERS:
+            default += f" with the {DEFAULT_PRESET} preset"
+        render.add_argument(
+            _flag(name),
+            dest=name,
+            metavar=_metavar(parameter),
+            help=f"{parameter.tooltip} ({default})".replace("%", "%%"),
+        )
     render.add_argument(
         "--tone-limits",
         nargs=2,
@@ -145,39 +146,47 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
         type=_assignment,
         dest="assignments",
         metavar="PARAM=VALUE",
-        help=(
-            "any other parameter of the algorithm, e.g. --set border=mirror "
-            "--set scan=serpentine (repeatable)"
-        ),
+        help="any parameter, as NAME=VALUE (repeatable), e.g. --set border=mirror",
     )
     variants = render.add_mutually_exclusive_group()
     variants.add_argument(
         "--stack",
         action="store_true",
-        help="write the input and the image after every pass: shape (N+1, ...), as TIFF",
+        help=(
+            "write the input and the image after every pass: shape (N+1, ...) with N = "
+            "--passes (default 4), as TIFF or zarr"
+        ),
     )
+    centre = PRESETS[DEFAULT_PRESET]["variance_threshold"]
     variants.add_argument(
         "--sweep",
-        type=_sweep,
+        type=_assignment,
         metavar="PARAM=V1,V2,...",
         help=(
-            "render once per value of one parameter (e.g. variance_threshold=0.47,0.5,0.53 "
-            "or seed=1,2,3): shape (len(values), ...), as TIFF"
+            "render once per value of one parameter (e.g. variance_threshold="
+            f"{centre * 0.75:g},{centre:g},{centre * 1.25:g} or seed=1,2,3): shape "
+            "(len(values), ...), as TIFF or zarr"
         ),
     )
 
 
+def _flag(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def _metavar(parameter) -> str:
+    if parameter.kind == "choice":
+        return "{" + ",".join(parameter.choices) + "}"
+    return {
+        "float": parameter.symbol or "X",
+        "int": "N",
+        "seed": "S",
+        "bool": "{true,false}",
+        "tone_ranges": "N|L0,L1,...",
+    }[parameter.kind]
+
+
 # -- values ---------------------------------------------------------------------------------------
-
-
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if not 0 <= value < 2**64:
-        raise argparse.ArgumentTypeError(f"must be between 0 and 2**64 - 1, got {value}")
-    return value
 
 
 def _scheduler_address(text: str) -> str | int:
@@ -199,102 +208,73 @@ def _scheduler_address(text: str) -> str | int:
     return workers
 
 
-def _sweep(text: str) -> tuple[str, list[Any]]:
-    """``--sweep PARAM=V1,V2,...``: the parameter's name and its values."""
-    name, values = _split_assignment(text, "PARAM=V1,V2,...")
-    return name, [_parse_value(v.strip()) for v in values.split(",")]
+def _assignment(text: str) -> tuple[str, str]:
+    """``NAME=VALUE`` (``--set``) or ``NAME=V1,V2,...`` (``--sweep``): the name and the text.
 
-
-def _assignment(text: str) -> tuple[str, Any]:
-    """``--set PARAM=VALUE``: the parameter's name and its value."""
-    name, value = _split_assignment(text, "PARAM=VALUE")
-    return name, _parse_value(value.strip())
-
-
-def _split_assignment(text: str, form: str) -> tuple[str, str]:
-    """The name (``-`` read as ``_``) and the text after ``=``; neither may be empty."""
+    The name may use ``-`` for ``_``; neither side may be empty. The value is
+    parsed by ``render_options``, which knows the parameter's type.
+    """
     name, sep, value = text.partition("=")
     name = name.strip().replace("-", "_")
     if not sep or not name or not value.strip():
-        raise argparse.ArgumentTypeError(f"expected {form}, got {text!r}")
-    return name, value
-
-
-def _parse_value(text: str) -> Any:
-    """A sweep value: int, float, bool or (for choices such as border) the text."""
-    for convert in (int, float):
-        try:
-            return convert(text)
-        except ValueError:
-            pass
-    if text.lower() in ("true", "false"):
-        return text.lower() == "true"
-    return text
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    return name, value.strip()
 
 
 # -- options for the API --------------------------------------------------------------------------
 
 
 def render_options(args: argparse.Namespace) -> dict[str, Any]:
-    """Keyword arguments for the API from the command line, validated up front."""
-    from ..api import resolve_parameters
-    from ..parameters import PARAMETER_NAMES
-    from ..presets import DEFAULT_PRESET
+    """Keyword arguments for :func:`napari_labyrinth.labyrinth_steps`, validated up front.
 
-    parameters = {
-        "passes": args.passes,
-        "mean_threshold": args.mean_threshold,
-        "variance_threshold": args.variance_threshold,
-        "max_tries": args.max_tries,
-    }
-    parameters = {name: value for name, value in parameters.items() if value is not None}
-    for name, value in args.assignments or ():
-        if name not in PARAMETER_NAMES:
+    Parameter values come from their own flags and from ``--set``, parsed by
+    the parameter table; ``--sweep`` adds ``parameter`` and ``values``.
+
+    Raises
+    ------
+    UsageError
+        One line naming the parameter and what it expects.
+    """
+    from ..core.parameters import PARAMETERS, SEED, SWEEPABLE
+    from ..core.presets import DEFAULT_PRESET, resolve_parameters, resolve_sweep
+
+    given = [(name, getattr(args, name)) for name in SWEEPABLE if getattr(args, name) is not None]
+    for name, text in args.assignments or ():
+        if name not in PARAMETERS:
             raise UsageError(
-                f"--set: unknown parameter {name!r}; use one of {', '.join(PARAMETER_NAMES)}"
+                f"--set: unknown parameter {name!r}; use one of {', '.join(PARAMETERS)}"
             )
-        if name in parameters:
-            raise UsageError(f"{name} is given twice")
-        parameters[name] = value
-    options: dict[str, Any] = dict(parameters)
+        given.append((name, text))
+    options: dict[str, Any] = {}
+    try:
+        for name, text in given:
+            if name in options:
+                raise UsageError(f"{name} is given twice")
+            options[name] = SWEEPABLE.get(name, SEED).parse(text)
+        preset = args.preset or DEFAULT_PRESET
+        seed = options.pop("seed", None)
+        if args.sweep is not None:
+            name, texts = args.sweep
+            if name not in SWEEPABLE:
+                raise UsageError(
+                    f"--sweep: unknown parameter {name!r}; use one of {', '.join(SWEEPABLE)}"
+                )
+            if name in options or (name == "seed" and args.seed is not None):
+                raise UsageError(f"--sweep varies {name}; do not also give it a value")
+            values = [SWEEPABLE[name].parse(text) for text in texts.split(",")]
+            resolve_sweep(preset, options, 0 if seed is None else seed, name, values)
+            options.update(parameter=name, values=values)
+        else:
+            resolve_parameters(preset, **options)
+    except (ValueError, TypeError) as exc:
+        raise UsageError(one_line(str(exc))) from None
     if args.preset is not None:
         options["preset"] = args.preset
-    if args.seed is not None:
-        options["seed"] = args.seed
+    if seed is not None:
+        options["seed"] = seed
     if args.tone_limits is not None:
         low, high = args.tone_limits
         if not (math.isfinite(low) and math.isfinite(high) and low < high):
             raise UsageError(f"--tone-limits must be finite with LOW < HIGH, got {low} {high}")
         options["tone_limits"] = (low, high)
-
-    preset = args.preset or DEFAULT_PRESET
-    try:
-        resolve_parameters(preset, **parameters)
-        if args.sweep is not None:
-            _check_sweep(args.sweep, preset, parameters, options)
-    except (ValueError, TypeError) as exc:
-        raise UsageError(one_line(str(exc))) from None
     return options
-
-
-def _check_sweep(
-    sweep: tuple[str, list[Any]],
-    preset: str,
-    parameters: dict[str, Any],
-    options: dict[str, Any],
-) -> None:
-    from ..api import resolve_parameters
-    from ..parameters import PARAMETER_NAMES
-
-    name, values = sweep
-    names = PARAMETER_NAMES + ("seed",)
-    if name not in names:
-        raise ValueError(f"--sweep: unknown parameter {name!r}; use one of {', '.join(names)}")
-    if name in options:
-        raise ValueError(f"--sweep varies {name}; do not also give it a value")
-    for value in values:
-        if name == "seed":
-            if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2**64:
-                raise ValueError(f"--sweep: seed values must be integers >= 0, got {value!r}")
-        else:
-            resolve_parameters(preset, **parameters, **{name: value})

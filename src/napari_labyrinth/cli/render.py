@@ -260,8 +260,9 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     counts plane-passes).
     """
     from .. import api
-    from ..lazy import default_tone_limits, is_lazy
+    from ..core.planes import plane_axes
     from ..io import image_format, open_image, release_files, write_array
+    from ..lazy import default_tone_limits, is_lazy
 
     lazy = True if args.scheduler is not None else None
     image = open_image(job.input, lazy=lazy, channel_axis=args.channel_axis)
@@ -274,14 +275,13 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     ):
         channel_axis = -1
     kwargs = dict(options, channel_axis=channel_axis)
+    mode = "stack" if args.stack else "sweep" if "parameter" in options else "single"
     chunked = is_lazy(image)
     try:
-        if not chunked:
-            kwargs["progress"] = progress
-        elif "tone_limits" not in options and image.dtype.name != "uint8":
+        if chunked and "tone_limits" not in options and image.dtype.name != "uint8":
             # a lazy rendering is only a graph: building one checks the input (dtype,
             # shape, channel axis) before a scan of the whole data
-            api.labyrinth(image, **dict(kwargs, tone_limits=(0.0, 1.0)))
+            api.labyrinth_steps(image, mode, **dict(kwargs, tone_limits=(0.0, 1.0)))
             _note(
                 f"{job.input}: finding the default tone limits (0.5th and 99.5th "
                 "percentiles) in a pass over the data; --tone-limits skips it"
@@ -289,35 +289,23 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             low, high = default_tone_limits(image, channel_axis)
             kwargs["tone_limits"] = (low, high)
             _note(f"{job.input}: tone limits {low!r} {high!r}")
-        if args.stack:
-            result = api.labyrinth_stack(image, **kwargs)
-        elif args.sweep is not None:
-            name, values = args.sweep
-            result = api.labyrinth_sweep(image, name, values, **kwargs)
-        else:
-            result = api.labyrinth(image, **kwargs)
-        extra = 1 if args.stack or args.sweep is not None else 0
-        plane_axes = _plane_axes(image.ndim, channel_axis, extra)
+        for event in api.labyrinth_steps(image, mode, **kwargs):
+            if isinstance(event, api.Result):
+                result = event.image
+            elif progress is not None:
+                progress(event.done, event.total)
+        extra = 0 if mode == "single" else 1
         job.output.parent.mkdir(parents=True, exist_ok=True)
         write_array(
             job.output,
             result,
             overwrite=args.overwrite,
-            plane_axes=plane_axes,
+            plane_axes=plane_axes(image.ndim, channel_axis, extra),
             progress=functools.partial(progress, unit="plane") if chunked and progress else None,
         )
     finally:
         if chunked:
             release_files()
-
-
-def _plane_axes(ndim: int, channel_axis: int | None, extra: int) -> tuple[int, ...]:
-    """Axes of one plane of a result with ``extra`` axes before those of the image."""
-    if channel_axis is None:
-        return (extra + ndim - 2, extra + ndim - 1)
-    channel = channel_axis % ndim
-    spatial = [axis for axis in range(ndim) if axis != channel][-2:]
-    return tuple(sorted(extra + axis for axis in (*spatial, channel)))
 
 
 def _note(message: str) -> None:
