@@ -232,17 +232,9 @@ def _kernel_arguments(parameters: LabyrinthParameters) -> tuple[Any, ...]:
 
 @functools.lru_cache(maxsize=64)
 def _kernel_options(parameters: LabyrinthParameters) -> tuple[Any, ...]:
-    """The options' codes in the kernel's order (``codes.OPTION_CODES``)."""
-    code = {name: codes[getattr(parameters, name)] for name, codes in OPTION_CODES.items()}
-    return (
-        code["border"],
-        code["variance_ratio"],
-        code["variance_action"],
-        code["condition_order"],
-        code["on_exhausted"],
-        parameters.include_centre,
-        code["scan"],
-    )
+    """The options' codes in the order of ``codes.OPTION_CODES``, then ``include_centre``."""
+    codes = tuple(codes[getattr(parameters, name)] for name, codes in OPTION_CODES.items())
+    return (*codes, parameters.include_centre)
 
 
 def write_changes(

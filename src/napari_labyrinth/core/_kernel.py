@@ -207,7 +207,7 @@ def _redraw(g, mean, mean_threshold, neighbour_sum, n, include_centre, pixel_key
 @njit(cache=True, nogil=True)
 def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone_low, tone_high,
                    max_tries, seed, plane_index, pass_index, border, variance_ratio,
-                   variance_action, condition_order, on_exhausted, include_centre, scan,
+                   variance_action, condition_order, on_exhausted, scan, include_centre,
                    has_nonfinite, counts, colour=-1, row_start=0, row_stop=-1):  # fmt: skip
     """Run one pass of the algorithm over ``plane`` in place (Eq. 1-4).
 
@@ -222,7 +222,8 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
     seed, plane_index, pass_index : int
         Select the random stream (see ``stream_key``).
     border, variance_ratio, variance_action, condition_order, on_exhausted, scan : int
-        The options' codes (``codes.py``); ``include_centre`` is a bool.
+        The options' codes, in the order of ``codes.OPTION_CODES``; then
+        ``include_centre``, a bool.
     has_nonfinite : bool
         False promises an all-finite plane: interior pixels skip the checks.
     counts : (6,) int64 array
