@@ -76,19 +76,10 @@ def render(
     the image after every pass, and the diagnostics in the image's layout.
     """
     passes = parameters.passes
-    if record_passes:
-        result = np.empty((passes + 1,) + image.shape, dtype=image.dtype)
-        result[...] = image
-        targets = [layout.to_planes(result[k]) for k in range(1, passes + 1)]
-    else:
-        result = image.copy()
-        targets = [layout.to_planes(result)]
+    result, targets = _allocate(image, layout, passes, record_passes)
     source = layout.to_planes(image)
     leading = layout.leading_shape
-    counts = np.zeros((passes,) + leading + (len(DIAGNOSTIC_FIELDS),), dtype=np.int64)
-    for index in np.ndindex(leading):
-        if layout.is_alpha(index):
-            counts[(slice(None),) + index + (SKIPPED,)] = math.prod(layout.plane_shape)
+    counts = _diagnostic_counts(layout, passes)
     planes = list(layout.rendered_indices())
     plane_workers = max(1, min(workers, len(planes)))
     stop = threading.Event()
@@ -126,6 +117,26 @@ def render(
         yield from _on_threads(planes, passes, passes_of, flat, plane_workers, stop)
     diagnostics = layout.to_image_layout(counts.view(DIAGNOSTICS_DTYPE)[..., 0])
     return result, np.ascontiguousarray(diagnostics)
+
+
+def _allocate(image: np.ndarray, layout: PlaneLayout, passes: int, record_passes: bool):
+    """The result (a copy of the image, or the input and a copy per pass) and, in the
+    layout of planes, where each pass (or the last) is written."""
+    if record_passes:
+        result = np.empty((passes + 1,) + image.shape, dtype=image.dtype)
+        result[...] = image
+        return result, [layout.to_planes(result[k]) for k in range(1, passes + 1)]
+    result = image.copy()
+    return result, [layout.to_planes(result)]
+
+
+def _diagnostic_counts(layout: PlaneLayout, passes: int) -> np.ndarray:
+    """Zeroed counts per pass and plane; alpha planes count every pixel as skipped."""
+    counts = np.zeros((passes,) + layout.leading_shape + (len(DIAGNOSTIC_FIELDS),), np.int64)
+    for index in np.ndindex(layout.leading_shape):
+        if layout.is_alpha(index):
+            counts[(slice(None),) + index + (SKIPPED,)] = math.prod(layout.plane_shape)
+    return counts
 
 
 def _on_threads(planes, passes, passes_of, flat, plane_workers, stop):

@@ -235,33 +235,14 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
     UsageError
         One line naming the parameter and what it expects.
     """
-    from ..core.parameters import PARAMETERS, SEED, SWEEPABLE
     from ..core.presets import DEFAULT_PRESET, resolve_parameters, resolve_sweep
 
-    given = [(name, getattr(args, name)) for name in SWEEPABLE if getattr(args, name) is not None]
-    for name, text in args.assignments or ():
-        if name not in PARAMETERS:
-            raise UsageError(
-                f"--set: unknown parameter {name!r}; use one of {', '.join(PARAMETERS)}"
-            )
-        given.append((name, text))
-    options: dict[str, Any] = {}
+    preset = args.preset or DEFAULT_PRESET
     try:
-        for name, text in given:
-            if name in options:
-                raise UsageError(f"{name} is given twice")
-            options[name] = SWEEPABLE.get(name, SEED).parse(text)
-        preset = args.preset or DEFAULT_PRESET
+        options = _parameter_values(args)
         seed = options.pop("seed", None)
         if args.sweep is not None:
-            name, texts = args.sweep
-            if name not in SWEEPABLE:
-                raise UsageError(
-                    f"--sweep: unknown parameter {name!r}; use one of {', '.join(SWEEPABLE)}"
-                )
-            if name in options or (name == "seed" and args.seed is not None):
-                raise UsageError(f"--sweep varies {name}; do not also give it a value")
-            values = [SWEEPABLE[name].parse(text) for text in texts.split(",")]
+            name, values = _sweep_values(args, options)
             resolve_sweep(preset, options, 0 if seed is None else seed, name, values)
             options.update(parameter=name, values=values)
         else:
@@ -278,3 +259,34 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
             raise UsageError(f"--tone-limits must be finite with LOW < HIGH, got {low} {high}")
         options["tone_limits"] = (low, high)
     return options
+
+
+def _parameter_values(args: argparse.Namespace) -> dict[str, Any]:
+    """The parameters and the seed given by their flags or ``--set``, parsed by the table."""
+    from ..core.parameters import PARAMETERS, SWEEPABLE
+
+    given = [(name, getattr(args, name)) for name in SWEEPABLE if getattr(args, name) is not None]
+    for name, text in args.assignments or ():
+        if name not in PARAMETERS:
+            raise UsageError(
+                f"--set: unknown parameter {name!r}; use one of {', '.join(PARAMETERS)}"
+            )
+        given.append((name, text))
+    values: dict[str, Any] = {}
+    for name, text in given:
+        if name in values:
+            raise UsageError(f"{name} is given twice")
+        values[name] = SWEEPABLE[name].parse(text)
+    return values
+
+
+def _sweep_values(args: argparse.Namespace, given: dict[str, Any]) -> tuple[str, list[Any]]:
+    """``--sweep``'s parameter and its values, parsed by the table."""
+    from ..core.parameters import SWEEPABLE
+
+    name, texts = args.sweep
+    if name not in SWEEPABLE:
+        raise UsageError(f"--sweep: unknown parameter {name!r}; use one of {', '.join(SWEEPABLE)}")
+    if name in given or (name == "seed" and args.seed is not None):
+        raise UsageError(f"--sweep varies {name}; do not also give it a value")
+    return name, [SWEEPABLE[name].parse(text) for text in texts.split(",")]
