@@ -59,8 +59,8 @@ def subprocess_seconds(code, env):
 
 def main():
     from napari_labyrinth import labyrinth
-    from napari_labyrinth.core._reference import reference_render
     from napari_labyrinth.api import resolve_parameters
+    from napari_labyrinth.core._reference import reference_render
 
     print("labyrinth kernel benchmark: Mpx/s per pass, single thread, JIT compile excluded")
     print(

@@ -9,12 +9,12 @@ from skimage import data
 from napari_labyrinth import (
     Progress,
     Result,
+    _engine,
     labyrinth,
     labyrinth_stack,
     labyrinth_steps,
     labyrinth_sweep,
 )
-from napari_labyrinth import _engine
 
 
 @pytest.fixture(scope="module")
@@ -49,9 +49,7 @@ def test_stack_and_sweep_modes_give_what_the_functions_give(camera):
     events = list(labyrinth_steps(camera, "sweep", parameter="passes", values=[1, 3]))
     assert [event.run for event in events[:-1]] == [0, 1, 1, 1]
     assert events[-2].total == 4
-    np.testing.assert_array_equal(
-        events[-1].image, labyrinth_sweep(camera, "passes", [1, 3])
-    )
+    np.testing.assert_array_equal(events[-1].image, labyrinth_sweep(camera, "passes", [1, 3]))
     assert len(events[-1].diagnostics) == 2
 
 
@@ -74,9 +72,7 @@ def test_bad_arguments_are_refused_at_the_call_not_at_the_first_step(camera):
 
 
 @pytest.mark.parametrize("workers", [1, 2])
-def test_closing_cancels_within_one_pass_and_leaves_nothing_running(
-    camera, workers, monkeypatch
-):
+def test_closing_cancels_within_one_pass_and_leaves_nothing_running(camera, workers, monkeypatch):
     calls = []
     real = _engine.run_pass
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from . import _engine
 from ._engine import DIAGNOSTICS_DTYPE, Progress, run_pass
-from .core.parameters import PARAMETER_NAMES, SEED, LabyrinthParameters
+from .core.parameters import SEED, LabyrinthParameters
 from .core.planes import (
     PlaneLayout,
     normalise_channel_axis,

@@ -556,4 +556,6 @@ def test_a_parameter_flag_and_set_give_the_same_rendering(tmp_path, flag, assign
     for name, extra in (("flag", flag), ("set", assignment)):
         argv = ["render", str(tmp_path / "in.tif"), "-o", str(tmp_path / f"{name}.tif")]
         assert main([*argv, "--passes", "1", *extra]) == 0
-    np.testing.assert_array_equal(read_image(tmp_path / "flag.tif"), read_image(tmp_path / "set.tif"))
+    np.testing.assert_array_equal(
+        read_image(tmp_path / "flag.tif"), read_image(tmp_path / "set.tif")
+    )

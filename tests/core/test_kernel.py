@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from napari_labyrinth import PRESETS
+from napari_labyrinth._engine import run_pass
 from napari_labyrinth.core._kernel import stream_key
 from napari_labyrinth.core._reference import reference_pass, splitmix64, uniform
-from napari_labyrinth._engine import run_pass
 from napari_labyrinth.core.parameters import (
     DIAGNOSTIC_FIELDS,
     PARAMETERS,

@@ -228,9 +228,7 @@ def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
             continue
         key = path_key(job.output)
         if key in seen:
-            raise UsageError(
-                f"{seen[key]} and {job.input} would both be rendered to {job.output}"
-            )
+            raise UsageError(f"{seen[key]} and {job.input} would both be rendered to {job.output}")
         seen[key] = job.input
         own_input = inputs.get(key) == job.input
         if key in inputs and not own_input:

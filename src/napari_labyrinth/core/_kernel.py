@@ -319,4 +319,3 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
                 counts[OUT_OF_TRIES] += 1
                 if on_exhausted != KEEP and max_tries > 0:
                     plane[y, x] = draw
-

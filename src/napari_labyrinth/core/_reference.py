@@ -84,6 +84,54 @@ def _neighbour_coordinate(i, n, border):
     raise ValueError(border)
 
 
+def _scan_order(height, width, scan):
+    """The (y, x) of every pixel in the order of the in-place update."""
+    if scan == CHECKERBOARD:  # colour by colour, each in raster order
+        return [
+            (y, x)
+            for colour in range(4)
+            for y in range(colour // 2, height, 2)
+            for x in range(colour % 2, width, 2)
+        ]
+    order = []
+    for y in range(height):
+        columns = range(width)
+        if scan == SERPENTINE and y % 2 == 1:
+            columns = reversed(columns)
+        order += [(y, x) for x in columns]
+    return order
+
+
+def _neighbour_values(g_plane, y, x, border):
+    """The finite values of the 8 neighbours that count (Eq. 1), in row-major order."""
+    height, width = g_plane.shape
+    values = []
+    for dy in (-1, 0, 1):
+        yy = _neighbour_coordinate(y + dy, height, border)
+        if yy is None:
+            continue
+        for dx in (-1, 0, 1):
+            if dy == dx == 0:
+                continue
+            xx = _neighbour_coordinate(x + dx, width, border)
+            if xx is None:
+                continue
+            value = float(g_plane[yy, xx])
+            if math.isfinite(value):
+                values.append(value)
+    return values
+
+
+def _push_bounds(g, mean, variance_action, range_limits, tones):
+    """Where a push draws: on g's side of M, in g's tone range or up to the end of the scale."""
+    t_inf, t_sup = tones[_tone_range(g, range_limits, len(tones))]
+    if variance_action == PUSH_IN_RANGE:
+        return (max(mean, t_inf), t_sup) if g >= mean else (t_inf, min(mean, t_sup))
+    if g >= mean:
+        return mean, tones[-1][1]
+    return tones[0][0], mean
+
+
 def reference_pass(
     plane,
     *,
@@ -119,39 +167,12 @@ def reference_pass(
     g_plane = np.array(plane, dtype=np.float32)
     height, width = g_plane.shape
     counts = dict.fromkeys(DIAGNOSTIC_FIELDS, 0)
-    if scan == CHECKERBOARD:  # colour by colour, each in raster order
-        order = [
-            (y, x)
-            for colour in range(4)
-            for y in range(colour // 2, height, 2)
-            for x in range(colour % 2, width, 2)
-        ]
-    else:
-        order = []
-        for y in range(height):
-            columns = range(width)
-            if scan == SERPENTINE and y % 2 == 1:
-                columns = reversed(columns)
-            order += [(y, x) for x in columns]
-    for y, x in order:
+    for y, x in _scan_order(height, width, scan):
         g = float(g_plane[y, x])
         if not math.isfinite(g):
             counts["skipped"] += 1
             continue
-        values = []
-        for dy in (-1, 0, 1):
-            yy = _neighbour_coordinate(y + dy, height, border)
-            if yy is None:
-                continue
-            for dx in (-1, 0, 1):
-                if dy == dx == 0:
-                    continue
-                xx = _neighbour_coordinate(x + dx, width, border)
-                if xx is None:
-                    continue
-                value = float(g_plane[yy, xx])
-                if math.isfinite(value):
-                    values.append(value)
+        values = _neighbour_values(g_plane, y, x, border)
         if not values:
             counts["skipped"] += 1
             continue
@@ -185,15 +206,7 @@ def reference_pass(
                 continue
             # push g away from M: draws on g's side of M, in g's tone range
             # or up to the end of the tone scale
-            t_inf, t_sup = tones[_tone_range(g, range_limits, len(tones))]
-            if variance_action == PUSH_IN_RANGE:
-                low, high = (
-                    (max(mean, t_inf), t_sup) if g >= mean else (t_inf, min(mean, t_sup))
-                )
-            elif g >= mean:
-                low, high = mean, tones[-1][1]
-            else:
-                low, high = tones[0][0], mean
+            low, high = _push_bounds(g, mean, variance_action, range_limits, tones)
             for attempt in range(max_tries):
                 r = uniform(seed, plane_index, pass_index, y * width + x, attempt)
                 draw = float(np.float32(low + r * (high - low)))

@@ -62,9 +62,7 @@ def validate_plane_offset(plane_offset: Any) -> int:
     if not isinstance(plane_offset, numbers.Integral) or isinstance(plane_offset, bool):
         raise TypeError(f"plane_offset must be an integer, got {plane_offset!r}")
     if not 0 <= plane_offset <= MAX_PLANE_OFFSET:
-        raise ValueError(
-            f"plane_offset must be between 0 and 2**63 - 1, got {plane_offset}"
-        )
+        raise ValueError(f"plane_offset must be between 0 and 2**63 - 1, got {plane_offset}")
     return int(plane_offset)
 
 
@@ -115,9 +113,7 @@ def first_plane_index(
     return int(np.ravel_multi_index(index, leading[: len(index)])) * per_index
 
 
-def step_count(
-    shape: Sequence[int], channel_axis: int | None, passes: Sequence[int] | int
-) -> int:
+def step_count(shape: Sequence[int], channel_axis: int | None, passes: Sequence[int] | int) -> int:
     """Progress steps of rendering an image of ``shape``: rendered planes × passes.
 
     ``passes`` is the passes of one rendering, or a sequence with those of

@@ -28,7 +28,14 @@ from __future__ import annotations
 from types import MappingProxyType
 from typing import Any
 
-from .parameters import PARAMETER_NAMES, PARAMETERS, SEED, SWEEPABLE, LabyrinthParameters, make_parameters
+from .parameters import (
+    PARAMETER_NAMES,
+    PARAMETERS,
+    SEED,
+    SWEEPABLE,
+    LabyrinthParameters,
+    make_parameters,
+)
 
 #: The literal reading: every parameter at its paper value.
 _PAPER = {name: parameter.paper for name, parameter in PARAMETERS.items()}
