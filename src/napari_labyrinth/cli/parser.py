@@ -9,7 +9,6 @@ imported here, so ``--help`` answers at once.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 from typing import Any
 
@@ -236,6 +235,7 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
         One line naming the parameter and what it expects.
     """
     from ..core.presets import DEFAULT_PRESET, resolve_parameters, resolve_sweep
+    from ..core.tone_scale import validate_tone_limits
 
     preset = args.preset or DEFAULT_PRESET
     try:
@@ -254,10 +254,13 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
     if seed is not None:
         options["seed"] = seed
     if args.tone_limits is not None:
-        low, high = args.tone_limits
-        if not (math.isfinite(low) and math.isfinite(high) and low < high):
-            raise UsageError(f"--tone-limits must be finite with LOW < HIGH, got {low} {high}")
-        options["tone_limits"] = (low, high)
+        try:
+            options["tone_limits"] = validate_tone_limits(args.tone_limits)
+        except ValueError:
+            low, high = args.tone_limits
+            raise UsageError(
+                f"--tone-limits must be finite with LOW < HIGH, got {low} {high}"
+            ) from None
     return options
 
 

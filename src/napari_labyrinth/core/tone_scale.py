@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+from typing import Any
 
 import numpy as np
 
@@ -82,6 +83,29 @@ class ToneScale:
         return values.astype(dtype)
 
 
+def validate_tone_limits(tone_limits: Any) -> tuple[float, float]:
+    """``tone_limits`` as ``(low, high)`` floats, finite with low < high.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``tone_limits``.
+    """
+    if (
+        isinstance(tone_limits, (str, bytes))
+        or not hasattr(tone_limits, "__len__")
+        or len(tone_limits) != 2
+    ):
+        raise TypeError(f"tone_limits must be None or (low, high), got {tone_limits!r}")
+    for value in tone_limits:
+        if not isinstance(value, numbers.Real) or isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"tone_limits must hold real numbers, got {tone_limits!r}")
+    low, high = (float(value) for value in tone_limits)
+    if not (math.isfinite(low) and math.isfinite(high)) or not low < high:
+        raise ValueError(f"tone_limits must be finite with low < high, got {tone_limits!r}")
+    return low, high
+
+
 def resolve_tone_scale(values: np.ndarray, tone_limits: tuple[float, float] | None) -> ToneScale:
     """The tone scale of an image from the ``tone_limits`` argument.
 
@@ -89,20 +113,7 @@ def resolve_tone_scale(values: np.ndarray, tone_limits: tuple[float, float] | No
     the finite values otherwise. A constant image gets a unit-wide scale.
     """
     if tone_limits is not None:
-        if (
-            isinstance(tone_limits, (str, bytes))
-            or not hasattr(tone_limits, "__len__")
-            or len(tone_limits) != 2
-        ):
-            raise TypeError(f"tone_limits must be None or (low, high), got {tone_limits!r}")
-        low, high = tone_limits
-        for value in (low, high):
-            if not isinstance(value, numbers.Real) or isinstance(value, (bool, np.bool_)):
-                raise TypeError(f"tone_limits must hold real numbers, got {tone_limits!r}")
-        low, high = float(low), float(high)
-        if not (math.isfinite(low) and math.isfinite(high)) or not low < high:
-            raise ValueError(f"tone_limits must be finite with low < high, got {tone_limits!r}")
-        return ToneScale(low, high)
+        return ToneScale(*validate_tone_limits(tone_limits))
     if values.dtype == np.uint8:
         return ToneScale(0.0, 255.0)
     finite = values if values.dtype.kind in "iu" else values[np.isfinite(values)]
