@@ -1,34 +1,16 @@
 """The napari widget: render an image layer with the labyrinthine tiling.
 
 The only module of the package that imports napari or Qt. It holds no
-algorithm: it reads the user's choices, turns them into one call of the
-public API (:func:`~napari_labyrinth.labyrinth`,
-:func:`~napari_labyrinth.labyrinth_stack` or
-:func:`~napari_labyrinth.labyrinth_sweep`), runs that call in a napari thread
-worker and adds the result as a new layer whose metadata records the call, so
-that it can be reproduced exactly.
-
-How a run stays responsive and cancellable: the worker is a generator (napari
-draws a determinate progress bar from its yields). The API call itself runs
-in a helper thread started by the generator; its ``progress`` callback, called
-after every plane and pass, forwards the count to the generator, which yields
-it, and raises when the user cancelled, so a run stops at the next plane or
-pass and adds no layer.
-
-Lazy (dask-backed) input layers: only the plane the viewer shows is loaded
-and rendered by the worker; the other planes of the result stay lazy and are
-rendered by napari when the slider reaches them.
+algorithm and no plan: it reads the user's choices and a snapshot of the
+input layer, hands them to :func:`napari_labyrinth.plan.make_plan`, runs
+:func:`napari_labyrinth.plan.render` in a napari thread worker (napari draws
+a determinate progress bar from its yields) and adds the result as a new
+layer whose metadata records the API call, so that it can be reproduced
+exactly.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
-import queue
-import re
-import threading
-import time
-from collections.abc import Callable, Generator, Sequence
 from typing import Any
 
 import numpy as np
@@ -60,7 +42,34 @@ from qtpy.QtWidgets import (
 )
 from superqt import QCollapsible
 
-from . import __version__, api, metrics, parameters, presets
+from . import parameters, presets
+from .plan import (
+    ALL_PLANES,
+    CURRENT_PLANE,
+    FLOAT_PARAMETERS,
+    METADATA_KEY,
+    MODES,
+    SWEEP_PARAMETERS,
+    Choices,
+    Failure,
+    LayerSnapshot,
+    Outcome,
+    RenderPlan,
+    default_sweep_text,
+    edited_text,
+    make_plan,
+    metric_cells,
+    metric_row_headers,
+    overrides,
+    parse_sweep_values,
+    preset_field_values,
+    render,
+    result_layer,
+    result_name,
+    tone_limit_text,
+    tone_limits,
+    visible_plane,
+)
 
 __all__ = [
     "METADATA_KEY",
@@ -68,25 +77,13 @@ __all__ = [
     "LabyrinthWidget",
     "parse_sweep_values",
     "render_selected_layer",
+    "result_name",
     "stack_selected_layer",
 ]
 
 #: Name of the plugin and of its widget in the manifest (napari.yaml).
 PLUGIN_NAME = "napari-labyrinth"
 WIDGET_NAME = "Labyrinthine tiling"
-
-#: Key of the result layers' ``metadata`` under which the widget records a run.
-METADATA_KEY = "napari_labyrinth"
-
-#: What a run produces: one rendering, the input and every pass (Fig. 4), or
-#: one rendering per value of a parameter (Fig. 3).
-MODES = ("single", "stack", "sweep")
-
-#: Which planes of an nD layer to render.
-ALL_PLANES, CURRENT_PLANE = "all planes", "current plane"
-
-#: API function each mode calls.
-_FUNCTIONS = {"single": "labyrinth", "stack": "labyrinth_stack", "sweep": "labyrinth_sweep"}
 
 #: Parameters edited in the main section, in order: (label, tooltip citing the paper).
 MAIN_FIELDS = {
@@ -174,433 +171,8 @@ READING_FIELDS = {
     ),
 }
 
-#: Parameters a sweep may vary: every parameter but ``tones``, and the seed.
-SWEEP_PARAMETERS = tuple(name for name in parameters.PARAMETER_NAMES if name != "tones") + (
-    "seed",
-)
-_FLOAT_PARAMETERS = ("mean_threshold", "variance_threshold")
-_INT_PARAMETERS = ("tone_ranges", "max_tries", "passes", "seed")
-_OPTION_PARAMETERS = {
-    name: choices for name, (choices, _) in READING_FIELDS.items() if choices is not None
-}
-_SYMBOLS = {"mean_threshold": "t", "variance_threshold": "V"}
-
-#: Rows of the per-pass table (one column per pass): (metric key, row header, the
-#: function whose docstring's first line is the row's tooltip).
-METRIC_ROWS = (
-    ("edge_enhancement", "edge enhancement", metrics.edge_enhancement),
-    ("labyrinth_cover", "labyrinth cover", metrics.labyrinth_cover),
-    ("wall_width", "wall width", metrics.wall_width),
-    ("orientation_coherence", "coherence", metrics.orientation_coherence),
-    ("contour_alignment", "alignment", metrics.contour_alignment),
-    ("texture_added", "texture added", metrics.texture_added),
-    ("changed", "changed %", None),
-)
-
 _SEED_MAX = 2**63 - 1
 _PASSES_MAX = 1000
-
-
-# -- plain helpers (no Qt) ---------------------------------------------------------------------
-
-
-def parse_sweep_values(parameter: str, text: str) -> list[Any]:
-    """Values of a sweep typed as text, converted to the parameter's type.
-
-    Parameters
-    ----------
-    parameter : str
-        One of ``SWEEP_PARAMETERS``.
-    text : str
-        Values separated by commas, semicolons or spaces, e.g. ``"0.47, 0.50, 0.53"``.
-
-    Returns
-    -------
-    list
-        floats, ints, bools or option names.
-
-    Raises
-    ------
-    ValueError
-        If the text holds no value or a value of the wrong type.
-    """
-    if parameter not in SWEEP_PARAMETERS:
-        raise ValueError(
-            f"cannot sweep {parameter!r}: choose one of {', '.join(SWEEP_PARAMETERS)}"
-        )
-    items = [item for item in re.split(r"[,;\s]+", text.strip()) if item]
-    if not items:
-        raise ValueError(f"type at least one value of {parameter} to sweep, e.g. 0.47, 0.50, 0.53")
-    values: list[Any] = []
-    for item in items:
-        try:
-            if parameter in _FLOAT_PARAMETERS:
-                values.append(float(item))
-            elif parameter in _INT_PARAMETERS:
-                values.append(int(item))
-            elif parameter == "include_centre":
-                lowered = item.lower()
-                if lowered not in ("true", "false", "yes", "no", "1", "0"):
-                    raise ValueError
-                values.append(lowered in ("true", "yes", "1"))
-            else:
-                if item not in _OPTION_PARAMETERS[parameter]:
-                    raise ValueError
-                values.append(item)
-        except ValueError:
-            expected = {
-                **dict.fromkeys(_FLOAT_PARAMETERS, "numbers"),
-                **dict.fromkeys(_INT_PARAMETERS, "whole numbers"),
-                "include_centre": "true or false",
-            }.get(parameter) or " or ".join(_OPTION_PARAMETERS[parameter])
-            raise ValueError(f"{parameter} values must be {expected}; got {item!r}") from None
-    return values
-
-
-def default_sweep_text(parameter: str, current: Any) -> str:
-    """Values proposed for a sweep of ``parameter`` around its ``current`` value.
-
-    ``variance_threshold`` at the paper's 0.50 gives ``"0.47, 0.5, 0.53"`` (Fig. 3).
-    """
-    if parameter in _FLOAT_PARAMETERS:
-        step = 0.03 if current >= 0.2 else 0.02
-        values = [max(0.0, current - step), current, current + step]
-        return ", ".join(f"{v:.4g}" for v in values)
-    if parameter == "passes":
-        return "1, 2, 4, 8"
-    if parameter == "seed":
-        return "0, 1, 2"
-    if parameter == "tone_ranges":
-        return "2, 3, 5"
-    if parameter == "max_tries":
-        return "1, 10, 100"
-    if parameter == "include_centre":
-        return "false, true"
-    return ", ".join(_OPTION_PARAMETERS[parameter])
-
-
-def _tone_range_count(value: Any) -> int:
-    """Number of tone ranges of a ``tone_ranges`` value (a count or the limits)."""
-    return int(value) if isinstance(value, (int, np.integer)) else len(value) - 1
-
-
-def _differs(value: Any, base: Any) -> bool:
-    """Whether a field's value overrides the preset's (floats: beyond rounding)."""
-    if isinstance(base, float) or isinstance(value, float):
-        return not math.isclose(float(value), float(base), rel_tol=1e-9, abs_tol=1e-12)
-    return value != base
-
-
-def _format_value(value: Any) -> str:
-    """A parameter value in a layer name."""
-    if isinstance(value, bool):
-        return str(value).lower()
-    if isinstance(value, float):
-        return f"{value:.4g}"
-    return str(value)
-
-
-def _format_metric(value: float) -> str:
-    """A metric in a table cell: 3 significant digits, no exponent below 10**6."""
-    if not math.isfinite(value):
-        return "–"
-    return f"{value:.0f}" if 100 <= abs(value) < 1e6 else f"{value:.3g}"
-
-
-def _plural(count: int, word: str) -> str:
-    return f"{count} {word}" + ("" if count == 1 else "es" if word.endswith("s") else "s")
-
-
-def result_name(
-    source: str,
-    mode: str,
-    passes: int,
-    preset: str,
-    overrides: dict[str, Any],
-    seed: int,
-    sweep: tuple[str, Sequence[Any]] | None = None,
-    plane_label: str = "",
-) -> str:
-    """Name of a result layer: the input, the mode and the key parameters.
-
-    Examples
-    --------
-    >>> result_name("cell", "single", 4, "labyrinth", {}, 0)
-    'cell · labyrinth · 4 passes · preset labyrinth'
-    """
-    if mode == "sweep" and sweep is not None:
-        parameter, values = sweep
-        shown = ", ".join(_format_value(v) for v in values[:4]) + (" …" if len(values) > 4 else "")
-        parts = [source, f"sweep {parameter} {shown}"]
-        if parameter != "passes":
-            parts.append(_plural(passes, "pass"))
-    else:
-        parts = [source, "labyrinth" if mode == "single" else "stack", _plural(passes, "pass")]
-    parts.append(f"preset {preset}")
-    edits = [
-        f"{_SYMBOLS.get(name, name)}={_format_value(value)}"
-        for name, value in overrides.items()
-        if name != "passes"
-    ]
-    if edits:
-        parts.append(", ".join(edits[:3]) + (" …" if len(edits) > 3 else ""))
-    if seed and not (sweep and sweep[0] == "seed"):
-        parts.append(f"seed {seed}")
-    if plane_label:
-        parts.append(plane_label)
-    return " · ".join(parts)
-
-
-def _diagnostics_record(diagnostics: np.ndarray | None) -> dict[str, Any] | None:
-    """JSON-friendly form of the API's structured diagnostics array."""
-    if diagnostics is None:
-        return None
-    return {
-        "shape": list(diagnostics.shape),
-        "counts": {name: diagnostics[name].tolist() for name in diagnostics.dtype.names},
-    }
-
-
-def _is_lazy(data: Any) -> bool:
-    """True for array-likes other than numpy arrays (dask, zarr, ...): load planes on demand."""
-    return not isinstance(data, np.ndarray)
-
-
-def _as_dask(data: Any, n_leading: int):
-    """``data`` as a dask array with one chunk per plane."""
-    import dask.array as da
-
-    if isinstance(data, da.Array):
-        return data
-    chunks = (1,) * n_leading + tuple(data.shape[n_leading:])
-    return da.from_array(data, chunks=chunks)
-
-
-def _splice_plane(lazy, rendered_plane: np.ndarray, index: tuple[int, ...], axis: int):
-    """``lazy`` with the plane at ``index`` (on the axes from ``axis``) replaced by an array.
-
-    The visible plane, rendered by the worker, goes into the lazy result so
-    that napari shows it at once without rendering it again.
-    """
-    import dask.array as da
-
-    if not index:
-        block = np.asarray(rendered_plane).reshape(lazy.shape)
-        return da.from_array(block, chunks=block.shape)
-    position = index[0]
-
-    def take(part: slice):
-        return lazy[(slice(None),) * axis + (part,)]
-
-    parts = []
-    if position > 0:
-        parts.append(take(slice(0, position)))
-    parts.append(
-        _splice_plane(take(slice(position, position + 1)), rendered_plane, index[1:], axis + 1)
-    )
-    if position + 1 < lazy.shape[axis]:
-        parts.append(take(slice(position + 1, None)))
-    return da.concatenate(parts, axis=axis) if len(parts) > 1 else parts[0]
-
-
-def _plane_offset(shape: tuple[int, ...], index: tuple[int, ...], rgb: bool) -> int:
-    """Flat index, among the API's planes of the whole data, of the first plane at ``index``.
-
-    The API takes every leading axis as planes, colour channels (last axis of
-    napari's RGB data) last among them.
-    """
-    channels = shape[-1] if rgb else 1
-    return int(np.ravel_multi_index(index, shape[: len(index)])) * channels
-
-
-def _grey(plane: np.ndarray, rgb: bool) -> np.ndarray:
-    """A 2-D float plane for the metrics: colour planes averaged over R, G and B."""
-    plane = np.asarray(plane, dtype=np.float64)
-    return plane[..., :3].mean(axis=-1) if rgb else plane
-
-
-# -- what a run does ---------------------------------------------------------------------------
-
-
-class _Cancelled(Exception):
-    """Raised in the progress callback when the user cancelled."""
-
-
-@dataclasses.dataclass
-class _Failure:
-    """A run that failed: the message for the user."""
-
-    message: str
-
-
-@dataclasses.dataclass
-class _Outcome:
-    """What a finished run hands back to the main thread."""
-
-    data: Any
-    diagnostics: Any
-    metric_rows: list[dict[str, float]]
-    seconds: float
-
-
-@dataclasses.dataclass
-class RenderPlan:
-    """Everything a run needs, captured on the main thread when Run is pressed.
-
-    The worker reads only this (arrays and plain values), never the viewer.
-
-    Attributes
-    ----------
-    mode : {"single", "stack", "sweep"}
-    function : str
-        Name of the API function called.
-    arguments : dict
-        Its keyword arguments (every parameter, seed, tone limits, ...).
-    data : array_like
-        What the worker renders: the whole layer data, or one plane of it
-        (then ``arguments`` holds its ``plane_offset``).
-    source_index : tuple of int or None
-        Index of that plane in the layer data, None for the whole data.
-    visible_index : tuple of int
-        Index of the plane the viewer shows (for the metrics table).
-    lazy_source : array_like or None
-        Lazy layer data of which the rest of the result stays lazy.
-    rgb : bool
-        Whether the data holds colour channels on its last axis.
-    total_steps : int
-        Number of yields of the worker (the progress bar's total).
-    layer_kwargs : dict
-        Keyword arguments of the result layer (name, transforms, contrast, metadata).
-    """
-
-    mode: str
-    function: str
-    arguments: dict[str, Any]
-    data: Any
-    source_index: tuple[int, ...] | None
-    visible_index: tuple[int, ...]
-    lazy_source: Any
-    rgb: bool
-    total_steps: int
-    layer_kwargs: dict[str, Any]
-    cancel: threading.Event = dataclasses.field(default_factory=threading.Event)
-    abort_requested: Callable[[], bool] = lambda: False
-
-    def should_stop(self) -> bool:
-        """Whether the user (or napari's activity panel) asked the run to stop."""
-        return self.cancel.is_set() or self.abort_requested()
-
-
-def _call_with_progress(
-    function: Callable[..., Any],
-    data: Any,
-    arguments: dict[str, Any],
-    should_stop: Callable[[], bool],
-) -> Generator[int, None, Any]:
-    """Run an API call in a helper thread; yield after each plane and pass.
-
-    Returns the call's result (as the generator's value). The call stops at
-    its next plane or pass once ``should_stop()`` is true (raising
-    :class:`_Cancelled`).
-    """
-    events: queue.SimpleQueue = queue.SimpleQueue()
-
-    def report(done: int, _total: int) -> None:
-        if should_stop():
-            raise _Cancelled
-        events.put(("progress", done))
-
-    def target() -> None:
-        try:
-            events.put(("done", function(data, progress=report, **arguments)))
-        except BaseException as exc:  # noqa: BLE001 - handed to the generator, raised there
-            events.put(("error", exc))
-
-    if should_stop():
-        raise _Cancelled
-    thread = threading.Thread(target=target, name="napari-labyrinth render", daemon=True)
-    thread.start()
-    while True:
-        kind, value = events.get()
-        if kind == "progress":
-            yield value
-            continue
-        thread.join()
-        if kind == "error":
-            raise value
-        return value
-
-
-def _lazy_result(plan: RenderPlan):
-    """The whole result as a lazy dask array (the API renders dask input lazily)."""
-    import dask.array as da
-
-    source = _as_dask(plan.lazy_source, len(plan.visible_index))
-    arguments = {k: v for k, v in plan.arguments.items() if k != "plane_offset"}
-    result = getattr(api, plan.function)(source, **arguments)
-    if not isinstance(result, da.Array):
-        raise TypeError("this version of napari_labyrinth.api does not render dask arrays lazily")
-    return result
-
-
-def _render(plan: RenderPlan) -> Generator[int, None, _Outcome | _Failure | None]:
-    """The worker: render, yield after each plane and pass, compute the metrics.
-
-    Returns an :class:`_Outcome`, a :class:`_Failure` with a message for the
-    user, or None when cancelled.
-    """
-    started = time.perf_counter()
-    try:
-        data = np.asarray(plan.data)  # for lazy input: loads one plane only
-        function = getattr(api, plan.function)
-        result, diagnostics = yield from _call_with_progress(
-            function, data, dict(plan.arguments, return_diagnostics=True), plan.should_stop
-        )
-        metric_rows = []
-        if plan.mode == "stack":
-            metric_rows = yield from _stack_metrics(plan, data, result)
-        if plan.lazy_source is not None:
-            offset = 0 if plan.mode == "single" else 1
-            result = _splice_plane(_lazy_result(plan), result, plan.visible_index, offset)
-        if plan.should_stop():
-            return None
-        yield plan.total_steps
-        return _Outcome(result, diagnostics, metric_rows, time.perf_counter() - started)
-    except _Cancelled:
-        return None
-    except (TypeError, ValueError) as exc:  # the API names the parameter at fault
-        return _Failure(str(exc))
-    except MemoryError:
-        return _Failure("not enough memory: render the current plane only, or a smaller image")
-    except Exception as exc:  # noqa: BLE001 - anything else still reaches the user as a message
-        return _Failure(f"{type(exc).__name__}: {exc}")
-
-
-def _stack_metrics(
-    plan: RenderPlan, data: np.ndarray, stack: np.ndarray
-) -> Generator[int, None, list[dict[str, float]]]:
-    """Pattern and edge metrics of every pass on the visible plane."""
-    index = () if plan.source_index is not None else plan.visible_index
-    original = _grey(data[index], plan.rgb)
-    rows = []
-    previous = np.asarray(stack[(0,) + index])
-    for pass_number in range(1, stack.shape[0]):
-        if plan.should_stop():
-            raise _Cancelled
-        rendered = np.asarray(stack[(pass_number,) + index])
-        try:
-            described = metrics.describe(original, _grey(rendered, plan.rgb))
-        except ValueError:  # e.g. a plane too small for the metrics' windows
-            described = {key: math.nan for key, _, function in METRIC_ROWS if function}
-        row = {"pass": pass_number, **described}
-        changed = rendered != previous
-        if plan.rgb:
-            changed = changed.any(axis=-1)
-        row["changed"] = 100.0 * float(changed.mean())
-        rows.append(row)
-        previous = rendered
-        yield pass_number
-    return rows
 
 
 # -- the widget --------------------------------------------------------------------------------
@@ -721,7 +293,7 @@ class LabyrinthWidget(QWidget):
         self.edited.native.setStyleSheet("color: gray")
         self.fields: dict[str, Any] = {}
         for name, (label, tooltip) in MAIN_FIELDS.items():
-            if name in _FLOAT_PARAMETERS:
+            if name in FLOAT_PARAMETERS:
                 widget = FloatSpinBox(label=label, min=0.0, max=100.0, step=0.01, tooltip=tooltip)
                 widget.native.setDecimals(4)
             elif name == "tone_ranges":
@@ -815,15 +387,11 @@ class LabyrinthWidget(QWidget):
         self.reading_section.collapse(animate=False)
 
         self.metrics_title = QLabel("Metrics after pass 1, 2, … (plane on screen)")
-        self.metrics_table = QTableWidget(len(METRIC_ROWS), 0)
-        self.metrics_table.setVerticalHeaderLabels([header for _, header, _ in METRIC_ROWS])
-        for row, (key, _, function) in enumerate(METRIC_ROWS):
-            doc = (
-                (function.__doc__ or "").strip().splitlines()[0]
-                if function
-                else ("Pixels this pass changed, in percent.")
-            )
-            self.metrics_table.verticalHeaderItem(row).setToolTip(f"{key}: {doc}")
+        headers = metric_row_headers()
+        self.metrics_table = QTableWidget(len(headers), 0)
+        self.metrics_table.setVerticalHeaderLabels([header for header, _ in headers])
+        for row, (_, tooltip) in enumerate(headers):
+            self.metrics_table.verticalHeaderItem(row).setToolTip(tooltip)
         self.metrics_table.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
         self.metrics_table.horizontalHeader().setSectionResizeMode(
             QHeaderView.ResizeMode.ResizeToContents
@@ -882,9 +450,7 @@ class LabyrinthWidget(QWidget):
         layer = self.image_layer.value
         if layer is None or not self.follow_contrast.value:
             return
-        low, high = (float(v) for v in layer.contrast_limits)
-        self.tone_low.value = f"{low:.6g}"
-        self.tone_high.value = f"{high:.6g}"
+        self.tone_low.value, self.tone_high.value = tone_limit_text(layer.contrast_limits)
 
     def _on_follow_contrast(self, follow: bool) -> None:
         self.tone_low.enabled = self.tone_high.enabled = not follow
@@ -899,30 +465,19 @@ class LabyrinthWidget(QWidget):
             If the typed limits are not numbers with low < high.
         """
         layer = self.image_layer.value
-        if self.follow_contrast.value and layer is not None:
-            low, high = (float(v) for v in layer.contrast_limits)
-        else:
-            try:
-                low, high = float(self.tone_low.value), float(self.tone_high.value)
-            except ValueError:
-                raise ValueError(
-                    f"tone limits must be numbers, got {self.tone_low.value!r} and "
-                    f"{self.tone_high.value!r}"
-                ) from None
-        if not (math.isfinite(low) and math.isfinite(high) and low < high):
-            raise ValueError(f"tone limits must be finite with low < high, got ({low}, {high})")
-        return low, high
+        following = self.follow_contrast.value and layer is not None
+        typed = (self.tone_low.value, self.tone_high.value)
+        return tone_limits(layer.contrast_limits if following else None, typed)
 
     # -- parameters --------------------------------------------------------------------------
 
     def _apply_preset(self, name: str) -> None:
         """Fill every parameter field from preset ``name``."""
-        values = presets.PRESETS[name]
+        values = preset_field_values(name, list(self.fields))
         self._filling = True
         try:
             for field, widget in self.fields.items():
-                value = values[field]
-                widget.value = _tone_range_count(value) if field == "tone_ranges" else value
+                widget.value = values[field]
         finally:
             self._filling = False
         self._on_field_edited()
@@ -931,8 +486,7 @@ class LabyrinthWidget(QWidget):
     def _on_field_edited(self, *_args) -> None:
         if self._filling:
             return
-        edited = list(self.overrides())
-        self.edited.value = f"edited: {', '.join(edited)}" if edited else "as the preset"
+        self.edited.value = edited_text(self.overrides())
 
     def overrides(self) -> dict[str, Any]:
         """The fields whose value differs from the chosen preset's.
@@ -942,15 +496,8 @@ class LabyrinthWidget(QWidget):
         dict
             Parameter name -> value, for :func:`napari_labyrinth.resolve_parameters`.
         """
-        base = presets.PRESETS[self.preset.value]
-        changed = {}
-        for name, widget in self.fields.items():
-            value, preset_value = widget.value, base[name]
-            if name == "tone_ranges":
-                preset_value = _tone_range_count(preset_value)
-            if _differs(value, preset_value):
-                changed[name] = value
-        return changed
+        values = {name: widget.value for name, widget in self.fields.items()}
+        return overrides(self.preset.value, values)
 
     def _on_mode_changed(self, *_args) -> None:
         sweeping = self.mode.value == "sweep"
@@ -974,198 +521,55 @@ class LabyrinthWidget(QWidget):
         ValueError, TypeError
             With a message for the user when a choice is invalid.
         """
+        return make_plan(self._snapshot(), self.choices())
+
+    def choices(self) -> Choices:
+        """The user's choices, as plain values."""
+        return Choices(
+            mode=self.mode.value,
+            preset=self.preset.value,
+            overrides=self.overrides(),
+            seed=int(self.seed.value),
+            tone_limits=(
+                None if self.follow_contrast.value else (self.tone_low.value, self.tone_high.value)
+            ),
+            planes=self.planes.value,
+            sweep_parameter=self.sweep_parameter.value,
+            sweep_text=self.sweep_values.value,
+        )
+
+    def _snapshot(self) -> LayerSnapshot | None:
+        """The input layer as plain values (None without one)."""
         layer = self.image_layer.value
         if layer is None:
-            raise ValueError("choose an image layer to render (add one, or open a sample)")
-        if layer.multiscale:
-            raise ValueError(
-                f"{layer.name!r} is a multiscale layer: add one of its resolution levels as "
-                "an image layer and render that"
-            )
-        mode = self.mode.value
-        preset = self.preset.value
-        overrides = self.overrides()
-        resolved = api.resolve_parameters(preset, **overrides)
-        seed = int(self.seed.value)
-        tone_limits = self.tone_limits()
-        rgb = bool(layer.rgb)
-        source = layer.data
+            return None
         n_leading = layer.ndim - 2
-        visible_index = self._visible_index(layer)
-
-        arguments: dict[str, Any] = {"preset": preset, "seed": seed}
-        arguments.update(resolved.as_dict())
-        arguments["tone_limits"] = tone_limits
-        arguments["channel_axis"] = -1 if rgb else None
-        sweep = None
-        passes_per_run = [resolved.passes]
-        if mode == "sweep":
-            parameter = self.sweep_parameter.value
-            values = parse_sweep_values(parameter, self.sweep_values.value)
-            for value in values:  # validate every value now, not in the worker
-                if parameter != "seed":
-                    api.resolve_parameters(preset, **dict(overrides, **{parameter: value}))
-            arguments.pop(parameter, None)
-            if parameter == "tone_ranges":
-                arguments.pop("tones", None)
-            if parameter == "seed":
-                arguments.pop("seed")
-            arguments["parameter"] = parameter
-            arguments["values"] = list(values)
-            sweep = (parameter, list(values))
-            if parameter == "passes":
-                passes_per_run = list(values)
-
-        # "current plane", and lazy data: the worker renders the plane on screen only;
-        # the rest of a lazy result stays lazy (napari renders a plane when it shows it)
-        partial = self.planes.value == CURRENT_PLANE and n_leading > 0
-        lazy = _is_lazy(source) and n_leading > 0 and not partial
-        if partial or lazy:
-            source_index = visible_index
-            data = source[source_index]
-            arguments["plane_offset"] = _plane_offset(source.shape, source_index, rgb)
+        if layer.multiscale or n_leading <= 0:
+            visible_index: tuple[int, ...] = ()
         else:
-            source_index = None
-            data = source
-
-        planes_rendered = 1 if source_index is not None else math.prod(source.shape[:n_leading])
-        if rgb:
-            channels = source.shape[-1]
-            planes_rendered *= 3 if channels == 4 else channels
-        total = planes_rendered * sum(passes_per_run)
-        if mode == "stack":
-            total += resolved.passes
-        total += 1  # the final step: assembling the result
-
-        plane_label = self._plane_label(layer, visible_index) if partial else ""
-        name = result_name(
-            layer.name, mode, resolved.passes, preset, overrides, seed, sweep, plane_label
-        )
-        function = _FUNCTIONS[mode]
-        record = {
-            "version": __version__,
-            "mode": mode,
-            "function": function,
-            "arguments": {
-                k: (list(v) if isinstance(v, tuple) else v) for k, v in arguments.items()
-            },
-            "source_layer": layer.name,
-            "source_shape": list(source.shape),
-            "source_dtype": str(source.dtype),
-            "source_index": list(source_index) if partial else None,
-            "preset": preset,
-            "overrides": dict(overrides),
-            "parameters": resolved.as_dict(),
-            "seed": seed,
-            "tone_limits": list(tone_limits),
-            "sweep": {"parameter": sweep[0], "values": sweep[1]} if sweep else None,
-            "lazy": lazy,
-        }
-        if not partial:
-            record["arguments"].pop("plane_offset", None)
-        extra_axis = {"stack": "pass", "sweep": sweep[0] if sweep else None}.get(mode)
-        layer_kwargs = self._result_layer_kwargs(
-            layer, name, extra_axis, visible_index if partial else None
-        )
-        layer_kwargs["metadata"] = {METADATA_KEY: record}
-        return RenderPlan(
-            mode=mode,
-            function=function,
-            arguments=arguments,
-            data=data,
-            source_index=source_index,
+            coordinates = layer.world_to_data(self.viewer.dims.point)[:n_leading]
+            visible_index = visible_plane(coordinates, layer.data.shape[:n_leading])
+        return LayerSnapshot(
+            name=layer.name,
+            data=layer.data,
+            ndim=layer.ndim,
+            rgb=bool(layer.rgb),
+            multiscale=bool(layer.multiscale),
+            scale=np.asarray(layer.scale, dtype=float),
+            translate=np.asarray(layer.translate, dtype=float),
+            rotate=np.asarray(layer.rotate, dtype=float),
+            shear=np.asarray(layer.shear, dtype=float),
+            affine=np.asarray(layer.affine.affine_matrix, dtype=float),
+            units=tuple(str(unit) for unit in layer.units),
+            axis_labels=tuple(str(label) for label in layer.axis_labels),
+            contrast_limits=tuple(layer.contrast_limits),
+            gamma=layer.gamma,
+            opacity=layer.opacity,
+            blending=layer.blending,
+            interpolation2d=layer.interpolation2d,
+            colormap=layer.colormap,
             visible_index=visible_index,
-            lazy_source=source if lazy else None,
-            rgb=rgb,
-            total_steps=total,
-            layer_kwargs=layer_kwargs,
         )
-
-    def _visible_index(self, layer: Image) -> tuple[int, ...]:
-        """Index, in the layer data, of the plane the viewer shows."""
-        n_leading = layer.ndim - 2
-        if n_leading <= 0:
-            return ()
-        coordinates = layer.world_to_data(self.viewer.dims.point)[:n_leading]
-        shape = layer.data.shape[:n_leading]
-        return tuple(int(np.clip(np.round(c), 0, size - 1)) for c, size in zip(coordinates, shape))
-
-    @staticmethod
-    def _plane_label(layer: Image, index: tuple[int, ...]) -> str:
-        labels = []
-        for axis, position in enumerate(index):
-            label = str(layer.axis_labels[axis])
-            if label.lstrip("-").isdigit():
-                label = f"axis {axis}"
-            labels.append(f"{label}={position}")
-        return ", ".join(labels)
-
-    @staticmethod
-    def _result_layer_kwargs(
-        layer: Image,
-        name: str,
-        extra_axis: str | None,
-        plane_index: tuple[int, ...] | None,
-    ) -> dict[str, Any]:
-        """Name, transforms, units and contrast settings of a result layer.
-
-        ``extra_axis`` names a new leading axis (stack, sweep), which gets
-        scale 1. A single plane rendered alone sits where it is in the input.
-        """
-        scale = np.asarray(layer.scale, dtype=float)
-        translate = np.asarray(layer.translate, dtype=float)
-        if plane_index is not None:
-            # the plane is data[index]: keep it in place in world coordinates
-            origin = np.zeros(layer.ndim)
-            offset = np.zeros(layer.ndim)
-            offset[: len(plane_index)] = plane_index
-            to_physical = layer.affine.inverse
-            translate = (
-                translate
-                + np.asarray(to_physical(layer.data_to_world(offset)))
-                - (np.asarray(to_physical(layer.data_to_world(origin))))
-            )
-        units = tuple(str(unit) for unit in layer.units)
-        axis_labels = tuple(layer.axis_labels)
-        rotate = np.asarray(layer.rotate)
-        shear = np.asarray(layer.shear)
-        affine = layer.affine
-        if extra_axis is not None:
-            n = layer.ndim
-            scale = np.concatenate([[1.0], scale])
-            translate = np.concatenate([[0.0], translate])
-            units = ("pixel",) + units
-            axis_labels = (extra_axis,) + axis_labels
-            embedded = np.eye(n + 1)
-            embedded[1:, 1:] = rotate
-            rotate = embedded
-            shear = (
-                np.concatenate([np.zeros(n), shear.ravel()])
-                if shear.ndim == 1
-                else (np.pad(shear, ((1, 0), (1, 0))))
-            )
-            if shear.ndim == 2:
-                shear[0, 0] = 1.0
-            affine = affine.expand_dims([0])
-        kwargs: dict[str, Any] = {
-            "name": name,
-            "scale": scale,
-            "translate": translate,
-            "rotate": rotate,
-            "shear": shear,
-            "affine": affine,
-            "units": units,
-            "axis_labels": axis_labels,
-            "rgb": bool(layer.rgb),
-            "contrast_limits": list(layer.contrast_limits),
-            "gamma": layer.gamma,
-            "opacity": layer.opacity,
-            "blending": layer.blending,
-            "interpolation2d": layer.interpolation2d,
-        }
-        if not layer.rgb:
-            kwargs["colormap"] = layer.colormap
-        return kwargs
 
     def run(self, *_args, start: bool = True):
         """Start a run with the current choices in a napari thread worker.
@@ -1193,7 +597,7 @@ class LabyrinthWidget(QWidget):
             self.status.value = f"Not started: {exc}"
             return None
         worker = create_worker(
-            _render,
+            render,
             plan,
             _progress={"total": plan.total_steps, "desc": "Labyrinthine tiling"},
         )
@@ -1205,7 +609,7 @@ class LabyrinthWidget(QWidget):
         self._outcome_received = False
         self.run_button.enabled = False
         self.cancel_button.enabled = True
-        self.status.value = f"Rendering {plan.layer_kwargs['name']} …"
+        self.status.value = f"Rendering {plan.name} …"
         if start:
             worker.start()
         return worker
@@ -1218,12 +622,12 @@ class LabyrinthWidget(QWidget):
         self.worker.quit()
         self.status.value = "Cancelling …"
 
-    def _on_returned(self, outcome: _Outcome | _Failure | None) -> None:
+    def _on_returned(self, outcome: Outcome | Failure | None) -> None:
         plan = self._plan
         if outcome is None or plan is None or plan.cancel.is_set():
             return
         self._outcome_received = True
-        if isinstance(outcome, _Failure):
+        if isinstance(outcome, Failure):
             show_error(f"Labyrinthine tiling failed: {outcome.message}")
             self.status.value = f"Failed: {outcome.message}"
             return
@@ -1233,28 +637,8 @@ class LabyrinthWidget(QWidget):
             show_error(f"Labyrinthine tiling: could not add the result layer: {exc}")
             self.status.value = f"Failed: {exc}"
 
-    def _add_result(self, plan: RenderPlan, outcome: _Outcome) -> None:
-        kwargs = dict(plan.layer_kwargs)
-        record = kwargs["metadata"][METADATA_KEY]
-        if plan.mode == "sweep":
-            record["diagnostics"] = [_diagnostics_record(d) for d in outcome.diagnostics]
-        else:
-            record["diagnostics"] = _diagnostics_record(outcome.diagnostics)
-        if plan.source_index is None:
-            record["diagnostics_scope"] = "all planes"
-        elif plan.lazy_source is not None:
-            record["diagnostics_scope"] = "the plane on screen (the others render lazily)"
-            record["diagnostics_plane"] = list(plan.visible_index)
-        else:
-            record["diagnostics_scope"] = "the rendered plane"
-        record["metrics"] = outcome.metric_rows
-        data = outcome.data
-        if record["source_index"] is not None:
-            # one plane rendered alone: size-1 leading axes keep it at its place
-            n_extra = 0 if plan.mode == "single" else 1
-            index = record["source_index"]
-            shape = data.shape[:n_extra] + (1,) * len(index) + data.shape[n_extra:]
-            data = data.reshape(shape)
+    def _add_result(self, plan: RenderPlan, outcome: Outcome) -> None:
+        data, kwargs = result_layer(plan, outcome)
         # Added hidden, so that napari slices it once, where the viewer stands (a
         # new layer is otherwise sliced at index 0 first: a lazy plane computed
         # for nothing), after the slider of a stack or sweep moves to its end.
@@ -1280,12 +664,12 @@ class LabyrinthWidget(QWidget):
     def _show_metrics(self, passes: list[dict[str, float]]) -> None:
         """Fill the table: one row per metric, one column per pass."""
         table = self.metrics_table
-        table.setColumnCount(len(passes))
-        table.setHorizontalHeaderLabels([str(values["pass"]) for values in passes])
-        for column, values in enumerate(passes):
-            for row, (key, _, _) in enumerate(METRIC_ROWS):
-                value = values[key]
-                item = QTableWidgetItem(_format_metric(value))
+        headers, cells = metric_cells(passes)
+        table.setColumnCount(len(headers))
+        table.setHorizontalHeaderLabels(headers)
+        for row, texts in enumerate(cells):
+            for column, text in enumerate(texts):
+                item = QTableWidgetItem(text)
                 item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
                 table.setItem(row, column, item)
         self.metrics_title.setVisible(True)
