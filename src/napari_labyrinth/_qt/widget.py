@@ -42,8 +42,8 @@ from qtpy.QtWidgets import (
 )
 from superqt import QCollapsible
 
-from . import parameters, presets
-from .plan import (
+from .. import parameters, presets
+from ..plan import (
     ALL_PLANES,
     CURRENT_PLANE,
     FLOAT_PARAMETERS,

@@ -19,7 +19,7 @@ pytest.importorskip("pytestqt")
 
 import napari_labyrinth
 from napari_labyrinth import api, presets
-from napari_labyrinth._widget import (
+from napari_labyrinth._qt.widget import (
     CURRENT_PLANE,
     METADATA_KEY,
     LabyrinthWidget,
@@ -377,7 +377,7 @@ def test_the_viewer_stays_responsive_during_a_run(qtbot, viewer, widget, slow_ap
 @pytest.fixture
 def shown_errors(monkeypatch):
     messages = []
-    import napari_labyrinth._widget as widget_module
+    import napari_labyrinth._qt.widget as widget_module
 
     def record(message):
         messages.append(message)
