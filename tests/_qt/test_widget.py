@@ -19,14 +19,9 @@ pytest.importorskip("pytestqt")
 
 import napari_labyrinth
 from napari_labyrinth import api, presets
-from napari_labyrinth._qt.widget import (
-    CURRENT_PLANE,
-    METADATA_KEY,
-    LabyrinthWidget,
-    parse_sweep_values,
-    render_selected_layer,
-    result_name,
-)
+from napari_labyrinth._qt.menus import render_selected_layer
+from napari_labyrinth._qt.widget import LabyrinthWidget
+from napari_labyrinth.plan import CURRENT_PLANE, METADATA_KEY, parse_sweep_values, result_name
 
 RUN_TIMEOUT_MS = 60_000
 
@@ -379,10 +374,7 @@ def shown_errors(monkeypatch):
     messages = []
     import napari_labyrinth._qt.widget as widget_module
 
-    def record(message):
-        messages.append(message)
-
-    monkeypatch.setattr(widget_module, "show_error", record)
+    monkeypatch.setattr(widget_module, "show_error", messages.append)
     return messages
 
 

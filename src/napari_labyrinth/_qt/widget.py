@@ -30,16 +30,7 @@ from napari.qt.threading import create_worker
 from napari.utils.notifications import show_error, show_info
 from napari.viewer import Viewer
 from qtpy.QtCore import Qt
-from qtpy.QtWidgets import (
-    QAbstractItemView,
-    QHeaderView,
-    QLabel,
-    QScrollArea,
-    QTableWidget,
-    QTableWidgetItem,
-    QVBoxLayout,
-    QWidget,
-)
+from qtpy.QtWidgets import QScrollArea, QVBoxLayout, QWidget
 from superqt import QCollapsible
 
 from .. import parameters, presets
@@ -47,7 +38,6 @@ from ..plan import (
     ALL_PLANES,
     CURRENT_PLANE,
     FLOAT_PARAMETERS,
-    METADATA_KEY,
     MODES,
     SWEEP_PARAMETERS,
     Choices,
@@ -58,32 +48,18 @@ from ..plan import (
     default_sweep_text,
     edited_text,
     make_plan,
-    metric_cells,
-    metric_row_headers,
     overrides,
-    parse_sweep_values,
     preset_field_values,
     render,
     result_layer,
-    result_name,
     tone_limit_text,
     tone_limits,
     visible_plane,
 )
+from .compare import CompareView
+from .metrics_table import MetricsTable
 
-__all__ = [
-    "METADATA_KEY",
-    "MODES",
-    "LabyrinthWidget",
-    "parse_sweep_values",
-    "render_selected_layer",
-    "result_name",
-    "stack_selected_layer",
-]
-
-#: Name of the plugin and of its widget in the manifest (napari.yaml).
-PLUGIN_NAME = "napari-labyrinth"
-WIDGET_NAME = "Labyrinthine tiling"
+__all__ = ["LabyrinthWidget"]
 
 #: Parameters edited in the main section, in order: (label, tooltip citing the paper).
 MAIN_FIELDS = {
@@ -223,7 +199,7 @@ class LabyrinthWidget(QWidget):
         self._plan: RenderPlan | None = None
         self._outcome_received = False
         self._watched_layer: Image | None = None
-        self._compare_state: dict[str, Any] | None = None
+        self._compare = CompareView(napari_viewer)
         self._filling = False
 
         self._build_input_section()
@@ -386,21 +362,8 @@ class LabyrinthWidget(QWidget):
         self.reading_section.addWidget(self.reading_box.native)
         self.reading_section.collapse(animate=False)
 
-        self.metrics_title = QLabel("Metrics after pass 1, 2, … (plane on screen)")
-        headers = metric_row_headers()
-        self.metrics_table = QTableWidget(len(headers), 0)
-        self.metrics_table.setVerticalHeaderLabels([header for header, _ in headers])
-        for row, (_, tooltip) in enumerate(headers):
-            self.metrics_table.verticalHeaderItem(row).setToolTip(tooltip)
-        self.metrics_table.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
-        self.metrics_table.horizontalHeader().setSectionResizeMode(
-            QHeaderView.ResizeMode.ResizeToContents
-        )
-        self.metrics_table.verticalHeader().setSectionResizeMode(
-            QHeaderView.ResizeMode.ResizeToContents
-        )
-        self.metrics_title.setVisible(False)
-        self.metrics_table.setVisible(False)
+        self.metrics_table = MetricsTable()
+        self.metrics_title = self.metrics_table.title
 
         for box in (self.input_box, self.parameter_box, self.reading_box, self.mode_box):
             box.margins = (4, 2, 4, 2)
@@ -649,7 +612,7 @@ class LabyrinthWidget(QWidget):
             self.viewer.dims.set_current_step(axis, data.shape[0] - 1)
         layer.visible = True
         if plan.mode == "stack":
-            self._show_metrics(outcome.metric_rows)
+            self.metrics_table.show_passes(outcome.metric_rows)
         self.status.value = f"Added {layer.name} ({outcome.seconds:.1f} s)"
 
     def _on_finished(self) -> None:
@@ -661,97 +624,14 @@ class LabyrinthWidget(QWidget):
         if cancelled:
             self.status.value = "Cancelled: no layer added"
 
-    def _show_metrics(self, passes: list[dict[str, float]]) -> None:
-        """Fill the table: one row per metric, one column per pass."""
-        table = self.metrics_table
-        headers, cells = metric_cells(passes)
-        table.setColumnCount(len(headers))
-        table.setHorizontalHeaderLabels(headers)
-        for row, texts in enumerate(cells):
-            for column, text in enumerate(texts):
-                item = QTableWidgetItem(text)
-                item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
-                table.setItem(row, column, item)
-        self.metrics_title.setVisible(True)
-        table.setVisible(True)
-        table.resizeColumnsToContents()
-        height = table.horizontalHeader().sizeHint().height() + 2 * table.frameWidth()
-        height += sum(table.rowHeight(row) for row in range(table.rowCount()))
-        if table.horizontalScrollBar().isVisible() or table.columnCount() > 6:
-            height += table.horizontalScrollBar().sizeHint().height()
-        table.setFixedHeight(height)
-
     # -- compare -----------------------------------------------------------------------------
 
     def toggle_compare(self, *_args) -> None:
         """Show the input and the result side by side (napari grid mode), or go back."""
-        grid = getattr(self.viewer, "canvas", self.viewer).grid
-        if self._compare_state is not None:
-            state, self._compare_state = self._compare_state, None
-            grid.enabled = state["enabled"]
-            grid.shape = state["shape"]
-            grid.stride = state["stride"]
-            for layer, visible in state["visible"].items():
-                if layer in self.viewer.layers:
-                    layer.visible = visible
-            self.compare_button.text = "Compare"
-            return
-        result = self.viewer.layers.selection.active
-        if not (isinstance(result, Image) and METADATA_KEY in result.metadata):
-            result = self.last_result
-        if result is None or result not in self.viewer.layers:
-            show_info("Run the tiling first (or select a result layer) to compare it.")
-            return
-        source_name = result.metadata[METADATA_KEY]["source_layer"]
-        source = next((lay for lay in self.viewer.layers if lay.name == source_name), None)
-        if source is None:
-            show_info(f"The input layer {source_name!r} is no longer in the viewer.")
-            return
-        self._compare_state = {
-            "enabled": grid.enabled,
-            "shape": tuple(grid.shape),
-            "stride": grid.stride,
-            "visible": {layer: layer.visible for layer in self.viewer.layers},
-        }
-        for layer in self.viewer.layers:
-            # napari hands plugins proxies of its layers: compare with ==, not `is`
-            layer.visible = layer == source or layer == result
-        layers = list(self.viewer.layers)
-        grid.stride = 1 if layers.index(source) < layers.index(result) else -1
-        grid.shape = (1, 2)
-        grid.enabled = True
-        self.compare_button.text = "Back to overlay"
+        self._compare.toggle(self.last_result)
+        self.compare_button.text = "Back to overlay" if self._compare.active else "Compare"
 
     @property
     def comparing(self) -> bool:
         """Whether the compare (grid) view is on."""
-        return self._compare_state is not None
-
-
-# -- menu commands (Layers > Filter) -----------------------------------------------------------
-
-
-def _run_on_selected_layer(viewer: Viewer, mode: str) -> None:
-    layer = viewer.layers.selection.active
-    if not isinstance(layer, Image):
-        show_error("Labyrinthine tiling: select an image layer first.")
-        return
-    _, widget = viewer.window.add_plugin_dock_widget(PLUGIN_NAME, WIDGET_NAME)
-    widget.reset_choices()
-    widget.image_layer.value = layer
-    widget.mode.value = mode
-    widget.run()
-
-
-def render_selected_layer(viewer: Viewer) -> None:
-    """Render the selected image layer with the widget's current settings.
-
-    Opens the widget (if needed) so that the progress, Cancel and the
-    parameters stay at hand.
-    """
-    _run_on_selected_layer(viewer, "single")
-
-
-def stack_selected_layer(viewer: Viewer) -> None:
-    """Render every pass of the selected image layer into one stack (Fig. 4)."""
-    _run_on_selected_layer(viewer, "stack")
+        return self._compare.active
