@@ -578,66 +578,42 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
         With a message for the user when a choice is invalid (no layer, a
         multiscale layer, bad tone limits, sweep values or parameters).
     """
-    if snapshot is None:
-        raise ValueError("choose an image layer to render (add one, or open a sample)")
-    if snapshot.multiscale:
-        raise ValueError(
-            f"{snapshot.name!r} is a multiscale layer: add one of its resolution levels as "
-            "an image layer and render that"
-        )
-    mode, preset = choices.mode, choices.preset
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
-    edits = dict(choices.overrides)
+    _check_input(snapshot, choices.mode)
+    mode, preset, edits = choices.mode, choices.preset, dict(choices.overrides)
     resolved = api.resolve_parameters(preset, **edits)
     seed = int(choices.seed)
-    limits = tone_limits(
-        snapshot.contrast_limits if choices.tone_limits is None else None, choices.tone_limits
-    )
-    rgb = bool(snapshot.rgb)
-    source = snapshot.data
-    n_leading = snapshot.ndim - 2
-    visible_index = tuple(snapshot.visible_index)
-
-    arguments: dict[str, Any] = {"preset": preset, "seed": seed}
-    arguments.update(resolved.as_dict())
+    typed = choices.tone_limits
+    limits = tone_limits(snapshot.contrast_limits if typed is None else None, typed)
+    arguments: dict[str, Any] = {"preset": preset, "seed": seed, **resolved.as_dict()}
     arguments["tone_limits"] = limits
-    arguments["channel_axis"] = -1 if rgb else None
+    arguments["channel_axis"] = -1 if snapshot.rgb else None
     sweep = None
-    passes_per_run = [resolved.passes]
     if mode == "sweep":
         sweep = _sweep(preset, edits, choices.sweep_parameter, choices.sweep_text)
         _sweep_arguments(arguments, *sweep)
-        if sweep[0] == "passes":
-            passes_per_run = list(sweep[1])
 
     # "current plane", and lazy data: the run renders the plane on screen only;
     # the rest of a lazy result stays lazy (napari renders a plane when it shows it)
+    source, n_leading = snapshot.data, snapshot.ndim - 2
+    visible_index = tuple(snapshot.visible_index)
     partial = choices.planes == CURRENT_PLANE and n_leading > 0
     lazy = _is_lazy(source) and n_leading > 0 and not partial
-    if partial or lazy:
-        source_index = visible_index
-        data = source[source_index]
-        arguments["plane_offset"] = plane_offset(source.shape, source_index, rgb)
-    else:
-        source_index = None
-        data = source
+    source_index = visible_index if partial or lazy else None
+    if source_index is not None:
+        arguments["plane_offset"] = plane_offset(source.shape, source_index, snapshot.rgb)
+    passes_per_run = list(sweep[1]) if sweep and sweep[0] == "passes" else [resolved.passes]
+    stack_passes = resolved.passes if mode == "stack" else 0
+    one_plane = source_index is not None
     total = step_count(
-        source.shape,
-        n_leading,
-        rgb,
-        source_index is not None,
-        passes_per_run,
-        resolved.passes if mode == "stack" else 0,
+        source.shape, n_leading, snapshot.rgb, one_plane, passes_per_run, stack_passes
     )
 
     label = plane_label(snapshot.axis_labels, visible_index) if partial else ""
     name = result_name(snapshot.name, mode, resolved.passes, preset, edits, seed, sweep, label)
-    function = FUNCTIONS[mode]
     record = {
         "version": __version__,
         "mode": mode,
-        "function": function,
+        "function": FUNCTIONS[mode],
         "arguments": {k: (list(v) if isinstance(v, tuple) else v) for k, v in arguments.items()},
         "source_layer": snapshot.name,
         "source_shape": list(source.shape),
@@ -651,7 +627,7 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
         "sweep": {"parameter": sweep[0], "values": sweep[1]} if sweep else None,
         "lazy": lazy,
     }
-    if not partial:
+    if not partial:  # the record renders the whole data
         record["arguments"].pop("plane_offset", None)
     extra_axis = {"stack": "pass", "sweep": sweep[0] if sweep else None}.get(mode)
     layer_kwargs = result_layer_kwargs(
@@ -660,16 +636,29 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     layer_kwargs["metadata"] = {METADATA_KEY: record}
     return RenderPlan(
         mode=mode,
-        function=function,
+        function=FUNCTIONS[mode],
         arguments=arguments,
-        data=data,
+        data=source if source_index is None else source[source_index],
         source_index=source_index,
         visible_index=visible_index,
         lazy_source=source if lazy else None,
-        rgb=rgb,
+        rgb=bool(snapshot.rgb),
         total_steps=total,
         layer_kwargs=layer_kwargs,
     )
+
+
+def _check_input(snapshot: LayerSnapshot | None, mode: str) -> None:
+    """Raise for what no run can render: no layer, a multiscale layer, an unknown mode."""
+    if snapshot is None:
+        raise ValueError("choose an image layer to render (add one, or open a sample)")
+    if snapshot.multiscale:
+        raise ValueError(
+            f"{snapshot.name!r} is a multiscale layer: add one of its resolution levels as "
+            "an image layer and render that"
+        )
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
 
 
 def _sweep(
