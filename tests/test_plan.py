@@ -372,6 +372,7 @@ def test_tone_limits_of_a_plan_follow_the_contrast_limits_unless_typed():
     [
         ("variance_threshold", "0.05, 0.08", [0.05, 0.08], {"variance_threshold"}),
         ("tone_ranges", "2 4", [2, 4], {"tone_ranges", "tones"}),
+        ("seed", "1, 2, 3", [1, 2, 3], {"seed"}),
         ("passes", "1, 3", [1, 3], {"passes"}),
     ],
 )
@@ -593,6 +594,19 @@ def test_a_sweep_records_the_diagnostics_of_every_value():
     assert layer_data.shape == (2, 16, 16)
     np.testing.assert_array_equal(layer_data[1], api.labyrinth(data, scan="serpentine"))
     assert len(kwargs["metadata"][METADATA_KEY]["diagnostics"]) == 2
+
+
+def test_a_seed_sweep_renders_with_each_seed():
+    data = _noise((16, 16))
+    choices = Choices(mode="sweep", seed=9, sweep_parameter="seed", sweep_text="1 2")
+    plan = make_plan(LayerSnapshot.of(data), choices)
+    assert "seed" not in plan.arguments
+    assert plan.layer_kwargs["metadata"][METADATA_KEY]["seed"] == 9
+    assert plan.name == "image · sweep seed 1, 2 · 4 passes · preset labyrinth"
+    _, outcome = _drive(plan)
+    layer_data, kwargs = result_layer(plan, outcome)
+    np.testing.assert_array_equal(layer_data[1], api.labyrinth(data, seed=2))
+    np.testing.assert_array_equal(layer_data, _reproduce(kwargs, data))
 
 
 @pytest.mark.parametrize("mode", ["single", "stack", "sweep"])

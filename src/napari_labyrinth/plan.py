@@ -677,8 +677,6 @@ def _sweep_arguments(arguments: dict[str, Any], parameter: str, values: list[Any
     arguments.pop(parameter, None)
     if parameter == "tone_ranges":
         arguments.pop("tones", None)
-    if parameter == "seed":
-        arguments.pop("seed")
     arguments["parameter"] = parameter
     arguments["values"] = list(values)
 

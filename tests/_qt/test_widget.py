@@ -164,6 +164,20 @@ def test_sweep_mode_renders_one_plane_per_value(qtbot, viewer, widget):
     np.testing.assert_array_equal(result.data[1], expected)
 
 
+def test_a_seed_sweep_renders_one_plane_per_seed(qtbot, viewer, widget):
+    data = noise((32, 32))
+    viewer.add_image(data, name="cell", contrast_limits=(0, 255))
+    widget.mode.value = "sweep"
+    widget.sweep_parameter.value = "seed"
+    assert widget.sweep_values.value == "0, 1, 2"
+    run(qtbot, widget)
+
+    result = viewer.layers[-1]
+    assert result.name.startswith("cell · sweep seed 0, 1, 2")
+    np.testing.assert_array_equal(result.data, reproduce(result, data))
+    np.testing.assert_array_equal(result.data[2], api.labyrinth(data, seed=2))
+
+
 @pytest.mark.parametrize(
     "mode, shape, rgb",
     [
