@@ -601,7 +601,9 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     source_index = visible_index if partial or lazy else None
     if source_index is not None:
         arguments["plane_offset"] = plane_offset(source.shape, source_index, snapshot.rgb)
-    passes_per_run = list(sweep[1]) if sweep and sweep[0] == "passes" else [resolved.passes]
+    passes_per_run = [resolved.passes]
+    if sweep:  # one run per value
+        passes_per_run = sweep[1] if sweep[0] == "passes" else passes_per_run * len(sweep[1])
     stack_passes = resolved.passes if mode == "stack" else 0
     one_plane = source_index is not None
     total = step_count(

@@ -13,14 +13,18 @@ pytest.importorskip("pytestqt")
 from .helpers import RUN_TIMEOUT_MS, noise, run
 
 
-def test_progress_bar_counts_every_plane_and_pass(qtbot, viewer, widget, slow_api):
+@pytest.mark.parametrize("mode, total", [("single", 3 * 2 + 1), ("sweep", 2 * 3 * 2 + 1)])
+def test_progress_bar_counts_every_plane_and_pass(qtbot, viewer, widget, slow_api, mode, total):
     from napari._qt.widgets.qt_progress_bar import QtLabeledProgressBar
     from qtpy.QtWidgets import QApplication
 
     viewer.add_image(noise((3, 32, 32)), name="movie")
     widget.fields["passes"].value = 2
+    widget.mode.value = mode
+    widget.sweep_values.value = "0.03, 0.05"
     worker = widget.run(start=False)
-    assert worker.pbar.total == 3 * 2 + 1  # planes x passes, and assembling the result
+    # planes x passes (x values of a sweep), and assembling the result
+    assert worker.pbar.total == total
     yields, bars = [], []
 
     def on_yield(value):
@@ -36,7 +40,7 @@ def test_progress_bar_counts_every_plane_and_pass(qtbot, viewer, widget, slow_ap
     worker.start()
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
     assert len(yields) == worker.pbar.total
-    assert ("Labyrinthine tiling: ", 7) in bars, bars
+    assert ("Labyrinthine tiling: ", total) in bars, bars
 
 
 def test_cancel_stops_the_run_and_adds_no_layer(qtbot, viewer, widget, slow_api):
