@@ -1,7 +1,7 @@
 """The napari manifest: what the plugin contributes, and that npe2 accepts it.
 
 These tests need npe2 but no display; the widget itself is tested in
-``test_widget.py``.
+``tests/_qt/``.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ def test_the_widget_is_offered_in_the_plugins_and_filter_menus(manifest):
     (widget,) = manifest.contributions.widgets
     assert widget.display_name == "Labyrinthine tiling"
     commands = {command.id: command for command in manifest.contributions.commands}
-    assert commands[widget.command].python_name == "napari_labyrinth._widget:LabyrinthWidget"
+    assert commands[widget.command].python_name == "napari_labyrinth._qt.widget:LabyrinthWidget"
     filter_menu = manifest.contributions.menus["napari/layers/filter"]
     assert [item.command for item in filter_menu] == [
         "napari-labyrinth.open_widget",

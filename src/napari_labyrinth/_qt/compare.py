@@ -1,0 +1,71 @@
+"""Compare: the input and a result side by side (napari's grid mode), and back."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from napari.layers import Image
+from napari.utils.notifications import show_info
+from napari.viewer import Viewer
+
+from ..plan import METADATA_KEY
+
+
+class CompareView:
+    """Switches a viewer between its own view and a 1 x 2 grid of an input and its result.
+
+    Going back restores the grid settings and the visibility of every layer.
+    """
+
+    def __init__(self, viewer: Viewer) -> None:
+        self.viewer = viewer
+        self._state: dict[str, Any] | None = None
+
+    @property
+    def active(self) -> bool:
+        """Whether the compare (grid) view is on."""
+        return self._state is not None
+
+    def toggle(self, last_result: Image | None) -> None:
+        """Compare the selected result layer (else ``last_result``) with its input, or go back."""
+        if self._state is not None:
+            self._restore()
+            return
+        result = self.viewer.layers.selection.active
+        if not (isinstance(result, Image) and METADATA_KEY in result.metadata):
+            result = last_result
+        if result is None or result not in self.viewer.layers:
+            show_info("Run the tiling first (or select a result layer) to compare it.")
+            return
+        source_name = result.metadata[METADATA_KEY]["source_layer"]
+        source = next((lay for lay in self.viewer.layers if lay.name == source_name), None)
+        if source is None:
+            show_info(f"The input layer {source_name!r} is no longer in the viewer.")
+            return
+        grid = self._grid()
+        self._state = {
+            "enabled": grid.enabled,
+            "shape": tuple(grid.shape),
+            "stride": grid.stride,
+            "visible": {layer: layer.visible for layer in self.viewer.layers},
+        }
+        for layer in self.viewer.layers:
+            # napari hands plugins proxies of its layers: compare with ==, not `is`
+            layer.visible = layer == source or layer == result
+        layers = list(self.viewer.layers)
+        grid.stride = 1 if layers.index(source) < layers.index(result) else -1
+        grid.shape = (1, 2)
+        grid.enabled = True
+
+    def _restore(self) -> None:
+        grid = self._grid()
+        state, self._state = self._state, None
+        grid.enabled = state["enabled"]
+        grid.shape = state["shape"]
+        grid.stride = state["stride"]
+        for layer, visible in state["visible"].items():
+            if layer in self.viewer.layers:
+                layer.visible = visible
+
+    def _grid(self):
+        return getattr(self.viewer, "canvas", self.viewer).grid

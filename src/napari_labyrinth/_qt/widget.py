@@ -1,0 +1,334 @@
+"""The dock widget: render an image layer with the labyrinthine tiling.
+
+Layout and wiring only. The sections live in their own modules (the input in
+:mod:`.inputs`, the parameter fields in :mod:`.form`, the metrics table in
+:mod:`.metrics_table`, compare in :mod:`.compare`); what a run does is
+decided by :func:`napari_labyrinth.plan.make_plan` from a snapshot of the
+input layer and of the user's choices, and :mod:`.worker` runs it in a napari
+thread worker and adds the layer it hands back, whose metadata records the API
+call so that it can be reproduced exactly.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from magicgui.widgets import ComboBox, Container, Label, LineEdit, PushButton, RadioButtons
+from napari.layers import Image
+from napari.utils.notifications import show_error, show_info
+from napari.viewer import Viewer
+from qtpy.QtCore import Qt
+from qtpy.QtWidgets import QScrollArea, QVBoxLayout, QWidget
+from superqt import QCollapsible
+
+from .. import presets
+from ..plan import (
+    MODES,
+    SWEEP_PARAMETERS,
+    Choices,
+    Failure,
+    Outcome,
+    RenderPlan,
+    default_sweep_text,
+    make_plan,
+)
+from .compare import CompareView
+from .form import ParameterForm
+from .inputs import InputSection
+from .metrics_table import MetricsTable
+from .worker import add_result_layer, render_worker, stop
+
+__all__ = ["LabyrinthWidget"]
+
+
+class LabyrinthWidget(QWidget):
+    """Dock widget that renders an image layer with the labyrinthine tiling.
+
+    Parameters
+    ----------
+    napari_viewer : napari.viewer.Viewer
+        The viewer whose image layers the widget renders.
+
+    Attributes
+    ----------
+    image_layer : magicgui.widgets.ComboBox
+        The input: one of the viewer's image layers.
+    planes : magicgui.widgets.RadioButtons
+        ``"all planes"`` or ``"current plane"`` of an nD layer.
+    follow_contrast : magicgui.widgets.CheckBox
+        Whether the tone limits follow the input's contrast limits.
+    tone_low, tone_high : magicgui.widgets.LineEdit
+        Values mapped to tones 0 and 255.
+    preset : magicgui.widgets.ComboBox
+        Named parameter set that fills every parameter field.
+    fields : dict of str to magicgui widget
+        One field per parameter of the algorithm (``PARAMETER_NAMES`` but ``tones``).
+    seed : magicgui.widgets.SpinBox
+    mode : magicgui.widgets.RadioButtons
+        One of ``MODES``.
+    sweep_parameter : magicgui.widgets.ComboBox
+    sweep_values : magicgui.widgets.LineEdit
+    run_button, cancel_button, compare_button : magicgui.widgets.PushButton
+    status : magicgui.widgets.Label
+    metrics_table : QTableWidget
+        Per-pass metrics of the last stack run.
+    worker : napari worker or None
+        The running worker, if any.
+    last_result : napari.layers.Image or None
+        The layer the last run added.
+    """
+
+    def __init__(self, napari_viewer: Viewer) -> None:
+        super().__init__()
+        self.viewer = napari_viewer
+        self.worker = None
+        self.last_result: Image | None = None
+        self._plan: RenderPlan | None = None
+        self._outcome_received = False
+        self._compare = CompareView(napari_viewer)
+
+        self.inputs = InputSection(napari_viewer)
+        self.image_layer = self.inputs.image_layer
+        self.planes = self.inputs.planes
+        self.follow_contrast = self.inputs.follow_contrast
+        self.tone_low, self.tone_high = self.inputs.tone_low, self.inputs.tone_high
+        self.form = ParameterForm()
+        self.preset, self.edited = self.form.preset, self.form.edited
+        self.fields, self.seed = self.form.fields, self.form.seed
+        self.preset.changed.connect(self._apply_preset)
+        self._build_mode_section()
+        self.metrics_table = MetricsTable()
+        self.metrics_title = self.metrics_table.title
+        self._build_layout()
+
+        layer_events = self.viewer.layers.events
+        for name in ("inserted", "removed", "reordered", "renamed"):
+            emitter = getattr(layer_events, name, None)
+            if emitter is not None:
+                emitter.connect(self.reset_choices)
+
+        self.preset.value = presets.DEFAULT_PRESET
+        self._apply_preset(self.preset.value)
+        active = self.viewer.layers.selection.active
+        if isinstance(active, Image):
+            self.image_layer.value = active
+        self.inputs.follow_layer()
+        self._on_mode_changed()
+
+    # -- construction ------------------------------------------------------------------------
+
+    def _build_mode_section(self) -> None:
+        self.mode = RadioButtons(
+            label="mode",
+            choices=MODES,
+            value="single",
+            orientation="horizontal",
+            tooltip="single: one result layer; stack: the input and every pass along a new "
+            "axis (Fig. 4); sweep: one rendering per value of a parameter (Fig. 3).",
+        )
+        self.sweep_parameter = ComboBox(
+            label="sweep",
+            choices=list(SWEEP_PARAMETERS),
+            value="variance_threshold",
+            tooltip="Parameter varied by a sweep (Fig. 3 varies V of Eq. 4).",
+        )
+        self.sweep_values = LineEdit(
+            label="values", tooltip="Values of the swept parameter, e.g. 0.47, 0.50, 0.53."
+        )
+        self.run_button = PushButton(text="Run", tooltip="Render in the background.")
+        self.cancel_button = PushButton(
+            text="Cancel", tooltip="Stop at the next plane or pass; no layer is added."
+        )
+        self.compare_button = PushButton(
+            text="Compare", tooltip="Show the input and the last result side by side (grid)."
+        )
+        self.cancel_button.enabled = False
+        buttons = Container(
+            widgets=[self.run_button, self.cancel_button, self.compare_button],
+            layout="horizontal",
+            labels=False,
+        )
+        buttons.margins = (0, 0, 0, 0)
+        self.status = Label(value="")
+        self.status.native.setWordWrap(True)
+        self.status.native.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignVCenter)
+        self.mode_box = Container(
+            widgets=[self.mode, self.sweep_parameter, self.sweep_values, buttons]
+        )
+        self.mode.changed.connect(self._on_mode_changed)
+        self.sweep_parameter.changed.connect(self._on_sweep_parameter)
+        self.run_button.changed.connect(self.run)
+        self.cancel_button.changed.connect(self.cancel)
+        self.compare_button.changed.connect(self.toggle_compare)
+
+    def _build_layout(self) -> None:
+        self.reading_section = QCollapsible("Reading options (advanced)")
+        self.reading_section.setToolTip(
+            "The points the paper leaves open; the preset chooses a reading of each."
+        )
+        self.reading_section.layout().setContentsMargins(0, 2, 0, 2)
+        self.reading_section.addWidget(self.form.reading_box.native)
+        self.reading_section.collapse(animate=False)
+
+        boxes = (self.inputs.box, self.form.parameter_box, self.form.reading_box, self.mode_box)
+        for box in boxes:
+            box.margins = (4, 2, 4, 2)
+        content = QWidget()
+        layout = QVBoxLayout(content)
+        layout.setContentsMargins(4, 4, 4, 4)
+        layout.addWidget(self.inputs.box.native)
+        layout.addWidget(self.form.parameter_box.native)
+        layout.addWidget(self.reading_section)
+        layout.addWidget(self.mode_box.native)
+        layout.addWidget(self.status.native)
+        layout.addWidget(self.metrics_title)
+        layout.addWidget(self.metrics_table)
+        layout.addStretch(1)
+        scroll = QScrollArea()
+        scroll.setWidgetResizable(True)
+        scroll.setWidget(content)
+        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        outer = QVBoxLayout(self)
+        outer.setContentsMargins(0, 0, 0, 0)
+        outer.addWidget(scroll)
+        content.setMinimumWidth(330)
+        self.setMinimumWidth(350)
+
+    # -- choices -----------------------------------------------------------------------------
+
+    def reset_choices(self, *_args) -> None:
+        """Refresh the list of image layers (napari calls it when layers change)."""
+        self.inputs.reset_choices()
+
+    def tone_limits(self) -> tuple[float, float]:
+        """The values mapped to tones 0 and 255: the layer's contrast limits or the typed ones."""
+        return self.inputs.tone_limits()
+
+    def _apply_preset(self, name: str) -> None:
+        """Fill every parameter field from preset ``name``."""
+        self.form.apply_preset(name)
+        self._on_sweep_parameter(self.sweep_parameter.value)
+
+    def overrides(self) -> dict[str, Any]:
+        """The fields whose value differs from the chosen preset's (parameter name -> value)."""
+        return self.form.overrides()
+
+    def _on_mode_changed(self, *_args) -> None:
+        sweeping = self.mode.value == "sweep"
+        self.sweep_parameter.visible = sweeping
+        self.sweep_values.visible = sweeping
+
+    def _on_sweep_parameter(self, parameter: str) -> None:
+        self.sweep_values.value = default_sweep_text(parameter, self.form.value(parameter))
+
+    def choices(self) -> Choices:
+        """The user's choices, as plain values."""
+        return Choices(
+            mode=self.mode.value,
+            preset=self.preset.value,
+            overrides=self.overrides(),
+            seed=int(self.seed.value),
+            tone_limits=self.inputs.typed_tone_limits(),
+            planes=self.planes.value,
+            sweep_parameter=self.sweep_parameter.value,
+            sweep_text=self.sweep_values.value,
+        )
+
+    def plan(self) -> RenderPlan:
+        """Capture the current choices as a :class:`~napari_labyrinth.plan.RenderPlan`.
+
+        Raises
+        ------
+        ValueError, TypeError
+            With a message for the user when a choice is invalid.
+        """
+        return make_plan(self.inputs.snapshot(), self.choices())
+
+    # -- running -----------------------------------------------------------------------------
+
+    def run(self, *_args, start: bool = True):
+        """Start a run with the current choices in a napari thread worker.
+
+        Parameters
+        ----------
+        start : bool, optional
+            Start the worker. With False the worker is returned unstarted, so
+            that a caller (a test, a script) can connect to its signals first
+            and then call ``worker.start()``.
+
+        Returns
+        -------
+        worker or None
+            The worker, or None when the choices are invalid (the user gets a
+            notification) or a run is already going on.
+        """
+        if self.worker is not None:
+            show_info("A labyrinthine tiling is already running: cancel it or wait.")
+            return None
+        try:
+            plan = self.plan()
+        except (TypeError, ValueError) as exc:
+            show_error(f"Labyrinthine tiling: {exc}")
+            self.status.value = f"Not started: {exc}"
+            return None
+        worker = render_worker(plan)
+        worker.returned.connect(self._on_returned)
+        worker.finished.connect(self._on_finished)
+        self.worker = worker
+        self._plan = plan
+        self._outcome_received = False
+        self.run_button.enabled = False
+        self.cancel_button.enabled = True
+        self.status.value = f"Rendering {plan.name} …"
+        if start:
+            worker.start()
+        return worker
+
+    def cancel(self, *_args) -> None:
+        """Stop the running worker at its next plane or pass; no layer is added."""
+        if self.worker is None or self._plan is None:
+            return
+        stop(self.worker, self._plan)
+        self.status.value = "Cancelling …"
+
+    def _on_returned(self, outcome: Outcome | Failure | None) -> None:
+        plan = self._plan
+        if outcome is None or plan is None or plan.cancel.is_set():
+            return
+        self._outcome_received = True
+        if isinstance(outcome, Failure):
+            show_error(f"Labyrinthine tiling failed: {outcome.message}")
+            self.status.value = f"Failed: {outcome.message}"
+            return
+        try:
+            self._add_result(plan, outcome)
+        except Exception as exc:  # noqa: BLE001 - shown to the user, not as a traceback
+            show_error(f"Labyrinthine tiling: could not add the result layer: {exc}")
+            self.status.value = f"Failed: {exc}"
+
+    def _add_result(self, plan: RenderPlan, outcome: Outcome) -> None:
+        self.last_result = layer = add_result_layer(self.viewer, plan, outcome)
+        if plan.mode == "stack":
+            self.metrics_table.show_passes(outcome.metric_rows)
+        self.status.value = f"Added {layer.name} ({outcome.seconds:.1f} s)"
+
+    def _on_finished(self) -> None:
+        cancelled = self._plan is not None and not self._outcome_received
+        self.worker = None
+        self._plan = None  # holds the input data: let it go
+        self.run_button.enabled = True
+        self.cancel_button.enabled = False
+        if cancelled:
+            self.status.value = "Cancelled: no layer added"
+
+    # -- compare -----------------------------------------------------------------------------
+
+    def toggle_compare(self, *_args) -> None:
+        """Show the input and the result side by side (napari grid mode), or go back."""
+        self._compare.toggle(self.last_result)
+        self.compare_button.text = "Back to overlay" if self._compare.active else "Compare"
+
+    @property
+    def comparing(self) -> bool:
+        """Whether the compare (grid) view is on."""
+        return self._compare.active

@@ -1,0 +1,999 @@
+"""What a widget run will do, and the run itself: no napari, no Qt.
+
+The napari widget (:mod:`napari_labyrinth._qt`) takes two plain snapshots on
+the main thread when Run is pressed: the input layer (:class:`LayerSnapshot`)
+and the user's choices (:class:`Choices`). :func:`make_plan` turns them into
+a :class:`RenderPlan`: one call of the public API
+(:func:`~napari_labyrinth.labyrinth`, :func:`~napari_labyrinth.labyrinth_stack`
+or :func:`~napari_labyrinth.labyrinth_sweep`), which planes it renders, its
+tone limits and plane offset, the progress total, and the result layer's
+name, transforms, contrast settings and metadata record, from which the API
+call reproduces the result exactly.
+
+:func:`render` is the run: a generator that yields after every plane and pass
+(napari draws a determinate progress bar from its yields) and returns an
+:class:`Outcome`, a :class:`Failure` with a message for the user, or None when
+cancelled. It reads only the plan, never the viewer, so it runs in a worker
+thread, or directly in a script or a test. :func:`result_layer` turns the
+outcome into the data and keyword arguments of the result layer.
+
+How a run stays cancellable: the API call runs in a helper thread; its
+``progress`` callback, called after every plane and pass, forwards the count
+to the generator, which yields it, and raises when the user cancelled, so a
+run stops at the next plane or pass (:func:`_api_steps`).
+
+Lazy (dask-backed) input layers: only the plane the viewer shows is loaded
+and rendered by the run; the other planes of the result stay lazy and are
+rendered by napari when the slider reaches them (:func:`splice_plane`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import queue
+import re
+import threading
+import time
+from collections.abc import Callable, Generator, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from . import __version__, api, metrics, parameters, presets
+
+__all__ = [
+    "ALL_PLANES",
+    "CURRENT_PLANE",
+    "METADATA_KEY",
+    "MODES",
+    "Choices",
+    "Failure",
+    "LayerSnapshot",
+    "Outcome",
+    "RenderPlan",
+    "default_sweep_text",
+    "make_plan",
+    "parse_sweep_values",
+    "render",
+    "result_layer",
+    "result_name",
+]
+
+#: Key of the result layers' ``metadata`` under which a run is recorded.
+METADATA_KEY = "napari_labyrinth"
+
+#: What a run produces: one rendering, the input and every pass (Fig. 4), or
+#: one rendering per value of a parameter (Fig. 3).
+MODES = ("single", "stack", "sweep")
+
+#: Which planes of an nD layer to render.
+ALL_PLANES, CURRENT_PLANE = "all planes", "current plane"
+
+#: API function each mode calls.
+FUNCTIONS = {"single": "labyrinth", "stack": "labyrinth_stack", "sweep": "labyrinth_sweep"}
+
+#: The options a parameter may take, for the parameters that are options.
+OPTION_CHOICES = {
+    "variance_ratio": parameters.VARIANCE_RATIOS,
+    "variance_action": parameters.VARIANCE_ACTIONS,
+    "condition_order": parameters.CONDITION_ORDERS,
+    "border": parameters.BORDERS,
+    "on_exhausted": parameters.ON_EXHAUSTED,
+    "scan": parameters.SCANS,
+}
+
+#: Parameters a sweep may vary: every parameter but ``tones``, and the seed.
+SWEEP_PARAMETERS = tuple(name for name in parameters.PARAMETER_NAMES if name != "tones") + (
+    "seed",
+)
+FLOAT_PARAMETERS = ("mean_threshold", "variance_threshold")
+INT_PARAMETERS = ("tone_ranges", "max_tries", "passes", "seed")
+_SYMBOLS = {"mean_threshold": "t", "variance_threshold": "V"}
+
+#: Rows of the per-pass metrics (one column per pass): (metric key, row header,
+#: the function whose docstring's first line describes the row).
+METRIC_ROWS = (
+    ("edge_enhancement", "edge enhancement", metrics.edge_enhancement),
+    ("labyrinth_cover", "labyrinth cover", metrics.labyrinth_cover),
+    ("wall_width", "wall width", metrics.wall_width),
+    ("orientation_coherence", "coherence", metrics.orientation_coherence),
+    ("contour_alignment", "alignment", metrics.contour_alignment),
+    ("texture_added", "texture added", metrics.texture_added),
+    ("changed", "changed %", None),
+)
+
+
+# -- what the widget hands over ----------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class LayerSnapshot:
+    """The input image layer as plain values, taken on the main thread.
+
+    Attributes
+    ----------
+    name : str
+    data : array_like
+        The layer data (not copied; numpy, dask, zarr, ...).
+    ndim : int
+        Dimensions of the layer, colour channels of RGB data not counted.
+    rgb, multiscale : bool
+    scale, translate : ndarray
+        One value per dimension.
+    rotate : ndarray
+        ``(ndim, ndim)`` rotation matrix.
+    shear : ndarray
+        Upper-triangular shear coefficients (``ndim * (ndim - 1) / 2``
+        values) or an ``(ndim, ndim)`` shear matrix.
+    affine : ndarray
+        ``(ndim + 1, ndim + 1)`` homogeneous matrix of the layer's extra
+        (physical to world) affine transform.
+    units, axis_labels : tuple of str
+    contrast_limits : tuple of float
+    gamma, opacity, blending, interpolation2d, colormap
+        Display settings, handed to the result layer as they are.
+    visible_index : tuple of int
+        Index, in the leading axes of the data, of the plane the viewer shows.
+    """
+
+    name: str
+    data: Any
+    ndim: int
+    rgb: bool
+    multiscale: bool
+    scale: np.ndarray
+    translate: np.ndarray
+    rotate: np.ndarray
+    shear: np.ndarray
+    affine: np.ndarray
+    units: tuple[str, ...]
+    axis_labels: tuple[str, ...]
+    contrast_limits: tuple[float, float]
+    gamma: float
+    opacity: float
+    blending: str
+    interpolation2d: Any
+    colormap: Any
+    visible_index: tuple[int, ...]
+
+    @classmethod
+    def of(cls, data: Any, name: str = "image", rgb: bool = False, **fields: Any) -> LayerSnapshot:
+        """A snapshot of an array shown as napari shows it by default (identity transforms).
+
+        ``fields`` override any attribute, e.g. ``scale=(2.0, 2.0)``.
+
+        Examples
+        --------
+        >>> LayerSnapshot.of(np.zeros((3, 8, 8))).axis_labels
+        ('-3', '-2', '-1')
+        """
+        ndim = fields.pop("ndim", np.ndim(data) - bool(rgb))
+        values = {
+            "name": name,
+            "data": data,
+            "ndim": ndim,
+            "rgb": bool(rgb),
+            "multiscale": False,
+            "scale": np.ones(ndim),
+            "translate": np.zeros(ndim),
+            "rotate": np.eye(ndim),
+            "shear": np.zeros(ndim * (ndim - 1) // 2),
+            "affine": np.eye(ndim + 1),
+            "units": ("pixel",) * ndim,
+            "axis_labels": tuple(str(axis - ndim) for axis in range(ndim)),
+            "contrast_limits": (0.0, 255.0),
+            "gamma": 1.0,
+            "opacity": 1.0,
+            "blending": "translucent",
+            "interpolation2d": "nearest",
+            "colormap": "gray",
+            "visible_index": (0,) * max(ndim - 2, 0),
+        }
+        values.update(fields)
+        for key in ("scale", "translate", "rotate", "shear", "affine"):
+            values[key] = np.asarray(values[key], dtype=float)
+        return cls(**values)
+
+
+@dataclasses.dataclass(frozen=True)
+class Choices:
+    """The user's choices for a run.
+
+    Attributes
+    ----------
+    mode : {"single", "stack", "sweep"}
+    preset : str
+        Name of the preset (``napari_labyrinth.PRESETS``).
+    overrides : dict
+        Parameters whose value differs from the preset's.
+    seed : int
+    tone_limits : pair or None
+        Values mapped to tones 0 and 255 as typed (text or numbers), or None
+        to follow the layer's contrast limits.
+    planes : {"all planes", "current plane"}
+    sweep_parameter : str
+        One of ``SWEEP_PARAMETERS`` (sweep mode).
+    sweep_text : str
+        Its values as typed, e.g. ``"0.47, 0.50, 0.53"`` (sweep mode).
+    """
+
+    mode: str = "single"
+    preset: str = presets.DEFAULT_PRESET
+    overrides: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    seed: int = 0
+    tone_limits: tuple[Any, Any] | None = None
+    planes: str = ALL_PLANES
+    sweep_parameter: str = "variance_threshold"
+    sweep_text: str = ""
+
+
+# -- text in, text out -------------------------------------------------------------------------
+
+
+def parse_sweep_values(parameter: str, text: str) -> list[Any]:
+    """Values of a sweep typed as text, converted to the parameter's type.
+
+    Parameters
+    ----------
+    parameter : str
+        One of ``SWEEP_PARAMETERS``.
+    text : str
+        Values separated by commas, semicolons or spaces, e.g. ``"0.47, 0.50, 0.53"``.
+
+    Returns
+    -------
+    list
+        floats, ints, bools or option names.
+
+    Raises
+    ------
+    ValueError
+        If the text holds no value or a value of the wrong type.
+    """
+    if parameter not in SWEEP_PARAMETERS:
+        raise ValueError(
+            f"cannot sweep {parameter!r}: choose one of {', '.join(SWEEP_PARAMETERS)}"
+        )
+    items = [item for item in re.split(r"[,;\s]+", text.strip()) if item]
+    if not items:
+        raise ValueError(f"type at least one value of {parameter} to sweep, e.g. 0.47, 0.50, 0.53")
+    values: list[Any] = []
+    for item in items:
+        try:
+            if parameter in FLOAT_PARAMETERS:
+                values.append(float(item))
+            elif parameter in INT_PARAMETERS:
+                values.append(int(item))
+            elif parameter == "include_centre":
+                lowered = item.lower()
+                if lowered not in ("true", "false", "yes", "no", "1", "0"):
+                    raise ValueError
+                values.append(lowered in ("true", "yes", "1"))
+            else:
+                if item not in OPTION_CHOICES[parameter]:
+                    raise ValueError
+                values.append(item)
+        except ValueError:
+            expected = {
+                **dict.fromkeys(FLOAT_PARAMETERS, "numbers"),
+                **dict.fromkeys(INT_PARAMETERS, "whole numbers"),
+                "include_centre": "true or false",
+            }.get(parameter) or " or ".join(OPTION_CHOICES[parameter])
+            raise ValueError(f"{parameter} values must be {expected}; got {item!r}") from None
+    return values
+
+
+def default_sweep_text(parameter: str, current: Any) -> str:
+    """Values proposed for a sweep of ``parameter`` around its ``current`` value.
+
+    ``variance_threshold`` at the paper's 0.50 gives ``"0.47, 0.5, 0.53"`` (Fig. 3).
+    """
+    if parameter in FLOAT_PARAMETERS:
+        step = 0.03 if current >= 0.2 else 0.02
+        values = [max(0.0, current - step), current, current + step]
+        return ", ".join(f"{v:.4g}" for v in values)
+    if parameter == "passes":
+        return "1, 2, 4, 8"
+    if parameter == "seed":
+        return "0, 1, 2"
+    if parameter == "tone_ranges":
+        return "2, 3, 5"
+    if parameter == "max_tries":
+        return "1, 10, 100"
+    if parameter == "include_centre":
+        return "false, true"
+    return ", ".join(OPTION_CHOICES[parameter])
+
+
+def tone_limits(
+    contrast_limits: Sequence[float] | None, typed: tuple[Any, Any] | None = None
+) -> tuple[float, float]:
+    """The values mapped to tones 0 and 255: the contrast limits, or else the typed pair.
+
+    Raises
+    ------
+    ValueError
+        If the typed limits are not numbers, or the limits are not finite with low < high.
+    """
+    if contrast_limits is not None:
+        low, high = (float(v) for v in contrast_limits)
+    else:
+        typed_low, typed_high = typed if typed is not None else (None, None)
+        try:
+            low, high = float(typed_low), float(typed_high)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"tone limits must be numbers, got {typed_low!r} and {typed_high!r}"
+            ) from None
+    if not (math.isfinite(low) and math.isfinite(high) and low < high):
+        raise ValueError(f"tone limits must be finite with low < high, got ({low}, {high})")
+    return low, high
+
+
+def tone_limit_text(contrast_limits: Sequence[float]) -> tuple[str, str]:
+    """Contrast limits as the text of the tone limit fields."""
+    low, high = (float(v) for v in contrast_limits)
+    return f"{low:.6g}", f"{high:.6g}"
+
+
+def _format_value(value: Any) -> str:
+    """A parameter value in a layer name."""
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def _plural(count: int, word: str) -> str:
+    return f"{count} {word}" + ("" if count == 1 else "es" if word.endswith("s") else "s")
+
+
+def result_name(
+    source: str,
+    mode: str,
+    passes: int,
+    preset: str,
+    overrides: Mapping[str, Any],
+    seed: int,
+    sweep: tuple[str, Sequence[Any]] | None = None,
+    plane_label: str = "",
+) -> str:
+    """Name of a result layer: the input, the mode and the key parameters.
+
+    Examples
+    --------
+    >>> result_name("cell", "single", 4, "labyrinth", {}, 0)
+    'cell · labyrinth · 4 passes · preset labyrinth'
+    """
+    if mode == "sweep" and sweep is not None:
+        parameter, values = sweep
+        shown = ", ".join(_format_value(v) for v in values[:4]) + (" …" if len(values) > 4 else "")
+        parts = [source, f"sweep {parameter} {shown}"]
+        if parameter != "passes":
+            parts.append(_plural(passes, "pass"))
+    else:
+        parts = [source, "labyrinth" if mode == "single" else "stack", _plural(passes, "pass")]
+    parts.append(f"preset {preset}")
+    edits = [
+        f"{_SYMBOLS.get(name, name)}={_format_value(value)}"
+        for name, value in overrides.items()
+        if name != "passes"
+    ]
+    if edits:
+        parts.append(", ".join(edits[:3]) + (" …" if len(edits) > 3 else ""))
+    if seed and not (sweep and sweep[0] == "seed"):
+        parts.append(f"seed {seed}")
+    if plane_label:
+        parts.append(plane_label)
+    return " · ".join(parts)
+
+
+def plane_label(axis_labels: Sequence[str], index: tuple[int, ...]) -> str:
+    """Where a plane is, for a layer name: ``"t=2, z=5"`` (``"axis 0=2"`` for unnamed axes)."""
+    labels = []
+    for axis, position in enumerate(index):
+        label = str(axis_labels[axis])
+        if label.lstrip("-").isdigit():
+            label = f"axis {axis}"
+        labels.append(f"{label}={position}")
+    return ", ".join(labels)
+
+
+def format_metric(value: float) -> str:
+    """A metric in a table cell: 3 significant digits, no exponent below 10**6."""
+    if not math.isfinite(value):
+        return "–"
+    return f"{value:.0f}" if 100 <= abs(value) < 1e6 else f"{value:.3g}"
+
+
+def metric_row_headers() -> list[tuple[str, str]]:
+    """(header, tooltip) of each row of the per-pass metrics table."""
+    rows = []
+    for key, header, function in METRIC_ROWS:
+        doc = (
+            (function.__doc__ or "").strip().splitlines()[0]
+            if function
+            else "Pixels this pass changed, in percent."
+        )
+        rows.append((header, f"{key}: {doc}"))
+    return rows
+
+
+def metric_cells(passes: Sequence[Mapping[str, float]]) -> tuple[list[str], list[list[str]]]:
+    """Column headers (the pass numbers) and cell texts (one row per metric) of the table."""
+    headers = [str(values["pass"]) for values in passes]
+    cells = [[format_metric(values[key]) for values in passes] for key, _, _ in METRIC_ROWS]
+    return headers, cells
+
+
+# -- presets and the fields that override them -------------------------------------------------
+
+
+def _tone_range_count(value: Any) -> int:
+    """Number of tone ranges of a ``tone_ranges`` value (a count or the limits)."""
+    return int(value) if isinstance(value, (int, np.integer)) else len(value) - 1
+
+
+def _differs(value: Any, base: Any) -> bool:
+    """Whether a field's value overrides the preset's (floats: beyond rounding)."""
+    if isinstance(base, float) or isinstance(value, float):
+        return not math.isclose(float(value), float(base), rel_tol=1e-9, abs_tol=1e-12)
+    return value != base
+
+
+def preset_field_values(preset: str, names: Sequence[str]) -> dict[str, Any]:
+    """The values the fields ``names`` take from ``preset`` (tone ranges as a count)."""
+    values = presets.PRESETS[preset]
+    return {
+        name: _tone_range_count(values[name]) if name == "tone_ranges" else values[name]
+        for name in names
+    }
+
+
+def overrides(preset: str, values: Mapping[str, Any]) -> dict[str, Any]:
+    """The field ``values`` that differ from ``preset``'s, in the order of ``values``.
+
+    Returns
+    -------
+    dict
+        Parameter name -> value, for :func:`napari_labyrinth.resolve_parameters`.
+    """
+    base = preset_field_values(preset, list(values))
+    return {name: value for name, value in values.items() if _differs(value, base[name])}
+
+
+def edited_text(edited: Mapping[str, Any]) -> str:
+    """What the preset row says about the fields edited after choosing the preset."""
+    return f"edited: {', '.join(edited)}" if edited else "as the preset"
+
+
+# -- planes ------------------------------------------------------------------------------------
+
+
+def visible_plane(coordinates: Sequence[float], shape: Sequence[int]) -> tuple[int, ...]:
+    """Index of the plane at data ``coordinates`` of the leading axes, clipped to ``shape``."""
+    return tuple(int(np.clip(np.round(c), 0, size - 1)) for c, size in zip(coordinates, shape))
+
+
+def plane_offset(shape: tuple[int, ...], index: tuple[int, ...], rgb: bool) -> int:
+    """Flat index, among the API's planes of the whole data, of the first plane at ``index``.
+
+    The API takes every leading axis as planes, colour channels (last axis of
+    napari's RGB data) last among them.
+    """
+    channels = shape[-1] if rgb else 1
+    return int(np.ravel_multi_index(index, shape[: len(index)])) * channels
+
+
+def step_count(
+    shape: tuple[int, ...],
+    n_leading: int,
+    rgb: bool,
+    one_plane: bool,
+    passes_per_run: Sequence[int],
+    stack_passes: int = 0,
+) -> int:
+    """Number of yields of a run (the progress bar's total).
+
+    One per plane and pass of every run (colour: per channel, alpha kept),
+    one per pass whose metrics a stack computes, and one for assembling the
+    result.
+    """
+    planes_rendered = 1 if one_plane else math.prod(shape[:n_leading])
+    if rgb:
+        channels = shape[-1]
+        planes_rendered *= 3 if channels == 4 else channels
+    return planes_rendered * sum(passes_per_run) + stack_passes + 1
+
+
+def _is_lazy(data: Any) -> bool:
+    """True for array-likes other than numpy arrays (dask, zarr, ...): load planes on demand."""
+    return not isinstance(data, np.ndarray)
+
+
+# -- the plan ----------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass
+class RenderPlan:
+    """Everything a run needs, captured on the main thread when Run is pressed.
+
+    The run reads only this (arrays and plain values), never the viewer.
+
+    Attributes
+    ----------
+    mode : {"single", "stack", "sweep"}
+    function : str
+        Name of the API function called.
+    arguments : dict
+        Its keyword arguments (every parameter, seed, tone limits, ...).
+    data : array_like
+        What the run renders: the whole layer data, or one plane of it
+        (then ``arguments`` holds its ``plane_offset``).
+    source_index : tuple of int or None
+        Index of that plane in the layer data, None for the whole data.
+    visible_index : tuple of int
+        Index of the plane the viewer shows (for the metrics table).
+    lazy_source : array_like or None
+        Lazy layer data of which the rest of the result stays lazy.
+    rgb : bool
+        Whether the data holds colour channels on its last axis.
+    total_steps : int
+        Number of yields of the run (the progress bar's total).
+    layer_kwargs : dict
+        Keyword arguments of the result layer (name, transforms, contrast, metadata).
+    """
+
+    mode: str
+    function: str
+    arguments: dict[str, Any]
+    data: Any
+    source_index: tuple[int, ...] | None
+    visible_index: tuple[int, ...]
+    lazy_source: Any
+    rgb: bool
+    total_steps: int
+    layer_kwargs: dict[str, Any]
+    cancel: threading.Event = dataclasses.field(default_factory=threading.Event)
+    abort_requested: Callable[[], bool] = lambda: False
+
+    @property
+    def name(self) -> str:
+        """Name of the result layer."""
+        return self.layer_kwargs["name"]
+
+    def should_stop(self) -> bool:
+        """Whether the user (or napari's activity panel) asked the run to stop."""
+        return self.cancel.is_set() or self.abort_requested()
+
+
+def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
+    """What a run with ``choices`` on the layer ``snapshot`` will do.
+
+    Raises
+    ------
+    ValueError, TypeError
+        With a message for the user when a choice is invalid (no layer, a
+        multiscale layer, bad tone limits, sweep values or parameters).
+    """
+    _check_input(snapshot, choices.mode)
+    mode, preset, edits = choices.mode, choices.preset, dict(choices.overrides)
+    resolved = api.resolve_parameters(preset, **edits)
+    seed = int(choices.seed)
+    typed = choices.tone_limits
+    limits = tone_limits(snapshot.contrast_limits if typed is None else None, typed)
+    arguments: dict[str, Any] = {"preset": preset, "seed": seed, **resolved.as_dict()}
+    arguments["tone_limits"] = limits
+    arguments["channel_axis"] = -1 if snapshot.rgb else None
+    sweep = None
+    if mode == "sweep":
+        sweep = _sweep(preset, edits, choices.sweep_parameter, choices.sweep_text)
+        _sweep_arguments(arguments, *sweep)
+
+    # "current plane", and lazy data: the run renders the plane on screen only;
+    # the rest of a lazy result stays lazy (napari renders a plane when it shows it)
+    source, n_leading = snapshot.data, snapshot.ndim - 2
+    visible_index = tuple(snapshot.visible_index)
+    partial = choices.planes == CURRENT_PLANE and n_leading > 0
+    lazy = _is_lazy(source) and n_leading > 0 and not partial
+    source_index = visible_index if partial or lazy else None
+    if source_index is not None:
+        arguments["plane_offset"] = plane_offset(source.shape, source_index, snapshot.rgb)
+    passes_per_run = [resolved.passes]
+    if sweep:  # one run per value
+        passes_per_run = sweep[1] if sweep[0] == "passes" else passes_per_run * len(sweep[1])
+    stack_passes = resolved.passes if mode == "stack" else 0
+    one_plane = source_index is not None
+    total = step_count(
+        source.shape, n_leading, snapshot.rgb, one_plane, passes_per_run, stack_passes
+    )
+
+    label = plane_label(snapshot.axis_labels, visible_index) if partial else ""
+    name = result_name(snapshot.name, mode, resolved.passes, preset, edits, seed, sweep, label)
+    record = {
+        "version": __version__,
+        "mode": mode,
+        "function": FUNCTIONS[mode],
+        "arguments": {k: (list(v) if isinstance(v, tuple) else v) for k, v in arguments.items()},
+        "source_layer": snapshot.name,
+        "source_shape": list(source.shape),
+        "source_dtype": str(source.dtype),
+        "source_index": list(source_index) if partial else None,
+        "preset": preset,
+        "overrides": dict(edits),
+        "parameters": resolved.as_dict(),
+        "seed": seed,
+        "tone_limits": list(limits),
+        "sweep": {"parameter": sweep[0], "values": sweep[1]} if sweep else None,
+        "lazy": lazy,
+    }
+    if not partial:  # the record renders the whole data
+        record["arguments"].pop("plane_offset", None)
+    extra_axis = {"stack": "pass", "sweep": sweep[0] if sweep else None}.get(mode)
+    layer_kwargs = result_layer_kwargs(
+        snapshot, name, extra_axis, visible_index if partial else None
+    )
+    layer_kwargs["metadata"] = {METADATA_KEY: record}
+    return RenderPlan(
+        mode=mode,
+        function=FUNCTIONS[mode],
+        arguments=arguments,
+        data=source if source_index is None else source[source_index],
+        source_index=source_index,
+        visible_index=visible_index,
+        lazy_source=source if lazy else None,
+        rgb=bool(snapshot.rgb),
+        total_steps=total,
+        layer_kwargs=layer_kwargs,
+    )
+
+
+def _check_input(snapshot: LayerSnapshot | None, mode: str) -> None:
+    """Raise for what no run can render: no layer, a multiscale layer, an unknown mode."""
+    if snapshot is None:
+        raise ValueError("choose an image layer to render (add one, or open a sample)")
+    if snapshot.multiscale:
+        raise ValueError(
+            f"{snapshot.name!r} is a multiscale layer: add one of its resolution levels as "
+            "an image layer and render that"
+        )
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
+
+
+def _sweep(
+    preset: str, edits: Mapping[str, Any], parameter: str, text: str
+) -> tuple[str, list[Any]]:
+    """The swept parameter and its values, each checked now rather than in the run."""
+    values = parse_sweep_values(parameter, text)
+    for value in values:
+        if parameter != "seed":
+            api.resolve_parameters(preset, **dict(edits, **{parameter: value}))
+    return parameter, list(values)
+
+
+def _sweep_arguments(arguments: dict[str, Any], parameter: str, values: list[Any]) -> None:
+    """Turn the arguments of one rendering into those of ``labyrinth_sweep``."""
+    arguments.pop(parameter, None)
+    if parameter == "tone_ranges":
+        arguments.pop("tones", None)
+    arguments["parameter"] = parameter
+    arguments["values"] = list(values)
+
+
+def _shear_matrix(shear: np.ndarray, ndim: int) -> np.ndarray:
+    """An ``(ndim, ndim)`` shear matrix from napari's upper-triangular values or a matrix."""
+    shear = np.asarray(shear, dtype=float)
+    if shear.ndim == 2:
+        return shear
+    matrix = np.eye(ndim)
+    matrix[np.triu_indices(ndim, k=1)] = shear
+    return matrix
+
+
+def data_to_physical(snapshot: LayerSnapshot) -> np.ndarray:
+    """Linear part of the layer's data-to-physical transform: rotate @ shear @ scale (napari's)."""
+    n = snapshot.ndim
+    return (
+        np.asarray(snapshot.rotate, dtype=float)
+        @ _shear_matrix(snapshot.shear, n)
+        @ np.diag(np.asarray(snapshot.scale, dtype=float))
+    )
+
+
+def result_layer_kwargs(
+    snapshot: LayerSnapshot,
+    name: str,
+    extra_axis: str | None,
+    plane_index: tuple[int, ...] | None,
+) -> dict[str, Any]:
+    """Name, transforms, units and contrast settings of a result layer.
+
+    ``extra_axis`` names a new leading axis (stack, sweep), which gets
+    scale 1. A single plane rendered alone (``plane_index``) sits where it is
+    in the input: its translate moves by the data-to-physical image of its
+    index (the extra affine transform then maps it where the input's plane is).
+    """
+    scale = np.asarray(snapshot.scale, dtype=float)
+    translate = np.asarray(snapshot.translate, dtype=float)
+    if plane_index is not None:
+        offset = np.zeros(snapshot.ndim)
+        offset[: len(plane_index)] = plane_index
+        translate = translate + data_to_physical(snapshot) @ offset
+    units = tuple(snapshot.units)
+    axis_labels = tuple(snapshot.axis_labels)
+    rotate = np.asarray(snapshot.rotate)
+    shear = np.asarray(snapshot.shear)
+    affine = np.asarray(snapshot.affine, dtype=float)
+    if extra_axis is not None:
+        n = snapshot.ndim
+        scale = np.concatenate([[1.0], scale])
+        translate = np.concatenate([[0.0], translate])
+        units = ("pixel",) + units
+        axis_labels = (extra_axis,) + axis_labels
+        embedded = np.eye(n + 1)
+        embedded[1:, 1:] = rotate
+        rotate = embedded
+        shear = (
+            np.concatenate([np.zeros(n), shear.ravel()])
+            if shear.ndim == 1
+            else (np.pad(shear, ((1, 0), (1, 0))))
+        )
+        if shear.ndim == 2:
+            shear[0, 0] = 1.0
+        expanded = np.eye(n + 2)
+        expanded[1:, 1:] = affine
+        affine = expanded
+    kwargs: dict[str, Any] = {
+        "name": name,
+        "scale": scale,
+        "translate": translate,
+        "rotate": rotate,
+        "shear": shear,
+        "affine": affine,
+        "units": units,
+        "axis_labels": axis_labels,
+        "rgb": bool(snapshot.rgb),
+        "contrast_limits": list(snapshot.contrast_limits),
+        "gamma": snapshot.gamma,
+        "opacity": snapshot.opacity,
+        "blending": snapshot.blending,
+        "interpolation2d": snapshot.interpolation2d,
+    }
+    if not snapshot.rgb:
+        kwargs["colormap"] = snapshot.colormap
+    return kwargs
+
+
+# -- the run -----------------------------------------------------------------------------------
+
+
+class Cancelled(Exception):
+    """Raised in the progress callback when the user cancelled."""
+
+
+@dataclasses.dataclass
+class Failure:
+    """A run that failed: the message for the user."""
+
+    message: str
+
+
+@dataclasses.dataclass
+class Outcome:
+    """What a finished run hands back to the main thread."""
+
+    data: Any
+    diagnostics: Any
+    metric_rows: list[dict[str, float]]
+    seconds: float
+
+
+def _api_steps(
+    function: str,
+    data: Any,
+    arguments: dict[str, Any],
+    should_stop: Callable[[], bool],
+) -> Generator[int, None, Any]:
+    """Call the API function named ``function``; yield after each plane and pass.
+
+    Returns the call's result (as the generator's value). The call stops at
+    its next plane or pass once ``should_stop()`` is true (raising
+    :class:`Cancelled`). The one place that knows how the API reports its
+    progress.
+    """
+    return (yield from _call_with_progress(getattr(api, function), data, arguments, should_stop))
+
+
+def _call_with_progress(
+    function: Callable[..., Any],
+    data: Any,
+    arguments: dict[str, Any],
+    should_stop: Callable[[], bool],
+) -> Generator[int, None, Any]:
+    """Run an API call in a helper thread; yield after each plane and pass."""
+    events: queue.SimpleQueue = queue.SimpleQueue()
+
+    def report(done: int, _total: int) -> None:
+        if should_stop():
+            raise Cancelled
+        events.put(("progress", done))
+
+    def target() -> None:
+        try:
+            events.put(("done", function(data, progress=report, **arguments)))
+        except BaseException as exc:  # noqa: BLE001 - handed to the generator, raised there
+            events.put(("error", exc))
+
+    if should_stop():
+        raise Cancelled
+    thread = threading.Thread(target=target, name="napari-labyrinth render", daemon=True)
+    thread.start()
+    while True:
+        kind, value = events.get()
+        if kind == "progress":
+            yield value
+            continue
+        thread.join()
+        if kind == "error":
+            raise value
+        return value
+
+
+def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
+    """The run: render, yield after each plane and pass, compute the metrics.
+
+    Returns an :class:`Outcome`, a :class:`Failure` with a message for the
+    user, or None when cancelled (``plan.cancel`` set, or ``plan.abort_requested()``).
+    """
+    started = time.perf_counter()
+    try:
+        data = np.asarray(plan.data)  # for lazy input: loads one plane only
+        result, diagnostics = yield from _api_steps(
+            plan.function, data, dict(plan.arguments, return_diagnostics=True), plan.should_stop
+        )
+        metric_rows = []
+        if plan.mode == "stack":
+            metric_rows = yield from _stack_metrics(plan, data, result)
+        if plan.lazy_source is not None:
+            offset = 0 if plan.mode == "single" else 1
+            result = splice_plane(_lazy_result(plan), result, plan.visible_index, offset)
+        if plan.should_stop():
+            return None
+        yield plan.total_steps
+        return Outcome(result, diagnostics, metric_rows, time.perf_counter() - started)
+    except Cancelled:
+        return None
+    except (TypeError, ValueError) as exc:  # the API names the parameter at fault
+        return Failure(str(exc))
+    except MemoryError:
+        return Failure("not enough memory: render the current plane only, or a smaller image")
+    except Exception as exc:  # noqa: BLE001 - anything else still reaches the user as a message
+        return Failure(f"{type(exc).__name__}: {exc}")
+
+
+def _grey(plane: np.ndarray, rgb: bool) -> np.ndarray:
+    """A 2-D float plane for the metrics: colour planes averaged over R, G and B."""
+    plane = np.asarray(plane, dtype=np.float64)
+    return plane[..., :3].mean(axis=-1) if rgb else plane
+
+
+def _stack_metrics(
+    plan: RenderPlan, data: np.ndarray, stack: np.ndarray
+) -> Generator[int, None, list[dict[str, float]]]:
+    """Pattern and edge metrics of every pass on the visible plane."""
+    index = () if plan.source_index is not None else plan.visible_index
+    original = _grey(data[index], plan.rgb)
+    rows = []
+    previous = np.asarray(stack[(0,) + index])
+    for pass_number in range(1, stack.shape[0]):
+        if plan.should_stop():
+            raise Cancelled
+        rendered = np.asarray(stack[(pass_number,) + index])
+        try:
+            described = metrics.describe(original, _grey(rendered, plan.rgb))
+        except ValueError:  # e.g. a plane too small for the metrics' windows
+            described = {key: math.nan for key, _, function in METRIC_ROWS if function}
+        row = {"pass": pass_number, **described}
+        changed = rendered != previous
+        if plan.rgb:
+            changed = changed.any(axis=-1)
+        row["changed"] = 100.0 * float(changed.mean())
+        rows.append(row)
+        previous = rendered
+        yield pass_number
+    return rows
+
+
+def _as_dask(data: Any, n_leading: int):
+    """``data`` as a dask array with one chunk per plane."""
+    import dask.array as da
+
+    if isinstance(data, da.Array):
+        return data
+    chunks = (1,) * n_leading + tuple(data.shape[n_leading:])
+    return da.from_array(data, chunks=chunks)
+
+
+def _lazy_result(plan: RenderPlan):
+    """The whole result as a lazy dask array (the API renders dask input lazily)."""
+    import dask.array as da
+
+    source = _as_dask(plan.lazy_source, len(plan.visible_index))
+    arguments = {k: v for k, v in plan.arguments.items() if k != "plane_offset"}
+    result = getattr(api, plan.function)(source, **arguments)
+    if not isinstance(result, da.Array):
+        raise TypeError("this version of napari_labyrinth.api does not render dask arrays lazily")
+    return result
+
+
+def splice_plane(lazy, rendered_plane: np.ndarray, index: tuple[int, ...], axis: int):
+    """``lazy`` with the plane at ``index`` (on the axes from ``axis``) replaced by an array.
+
+    The visible plane, rendered by the run, goes into the lazy result so
+    that napari shows it at once without rendering it again.
+    """
+    import dask.array as da
+
+    if not index:
+        block = np.asarray(rendered_plane).reshape(lazy.shape)
+        return da.from_array(block, chunks=block.shape)
+    position = index[0]
+
+    def take(part: slice):
+        return lazy[(slice(None),) * axis + (part,)]
+
+    parts = []
+    if position > 0:
+        parts.append(take(slice(0, position)))
+    parts.append(
+        splice_plane(take(slice(position, position + 1)), rendered_plane, index[1:], axis + 1)
+    )
+    if position + 1 < lazy.shape[axis]:
+        parts.append(take(slice(position + 1, None)))
+    return da.concatenate(parts, axis=axis) if len(parts) > 1 else parts[0]
+
+
+# -- the result layer --------------------------------------------------------------------------
+
+
+def diagnostics_record(diagnostics: np.ndarray | None) -> dict[str, Any] | None:
+    """JSON-friendly form of the API's structured diagnostics array."""
+    if diagnostics is None:
+        return None
+    return {
+        "shape": list(diagnostics.shape),
+        "counts": {name: diagnostics[name].tolist() for name in diagnostics.dtype.names},
+    }
+
+
+def result_layer(plan: RenderPlan, outcome: Outcome) -> tuple[Any, dict[str, Any]]:
+    """Data and keyword arguments of the layer that shows a finished run.
+
+    The metadata record gains the diagnostics (and which planes they count)
+    and the per-pass metrics. A single plane rendered alone gets size-1
+    leading axes that keep it at its place in the input.
+    """
+    kwargs = dict(plan.layer_kwargs)
+    record = dict(kwargs["metadata"][METADATA_KEY])
+    if plan.mode == "sweep":
+        record["diagnostics"] = [diagnostics_record(d) for d in outcome.diagnostics]
+    else:
+        record["diagnostics"] = diagnostics_record(outcome.diagnostics)
+    if plan.source_index is None:
+        record["diagnostics_scope"] = "all planes"
+    elif plan.lazy_source is not None:
+        record["diagnostics_scope"] = "the plane on screen (the others render lazily)"
+        record["diagnostics_plane"] = list(plan.visible_index)
+    else:
+        record["diagnostics_scope"] = "the rendered plane"
+    record["metrics"] = outcome.metric_rows
+    kwargs["metadata"] = {METADATA_KEY: record}
+    data = outcome.data
+    if record["source_index"] is not None:
+        n_extra = 0 if plan.mode == "single" else 1
+        index = record["source_index"]
+        data = data.reshape(data.shape[:n_extra] + (1,) * len(index) + data.shape[n_extra:])
+    return data, kwargs

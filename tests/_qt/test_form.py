@@ -1,0 +1,58 @@
+"""The parameter form and the choices the widget hands to the plan."""
+
+from __future__ import annotations
+
+import pytest
+
+pytest.importorskip("napari")
+pytest.importorskip("pytestqt")
+
+from napari_labyrinth import parameters
+from napari_labyrinth._qt.form import MAIN_FIELDS, READING_FIELDS
+from napari_labyrinth.plan import CURRENT_PLANE, OPTION_CHOICES, Choices
+
+from .helpers import noise
+
+
+def test_the_fields_cover_every_parameter_but_the_tones_with_the_plan_s_options():
+    assert set(MAIN_FIELDS) | set(READING_FIELDS) == set(parameters.PARAMETER_NAMES) - {"tones"}
+    options = {name: choices for name, (choices, _) in READING_FIELDS.items() if choices}
+    assert options == OPTION_CHOICES
+
+
+def test_a_sweep_proposes_values_around_the_field_s_value(widget):
+    widget.preset.value = "paper"
+    assert widget.sweep_values.value == "0.47, 0.5, 0.53"  # Fig. 3
+    widget.fields["mean_threshold"].value = 0.1
+    widget.sweep_parameter.value = "mean_threshold"
+    assert widget.sweep_values.value == "0.08, 0.1, 0.12"
+    widget.seed.value = 7
+    widget.sweep_parameter.value = "seed"
+    assert widget.sweep_values.value == "0, 1, 2"
+
+
+def test_the_widget_hands_its_choices_to_the_plan_as_plain_values(viewer, widget):
+    viewer.add_image(noise((3, 16, 16)), name="movie")
+    assert widget.choices() == Choices(sweep_text="0.02, 0.04, 0.06")  # the widget's defaults
+    widget.mode.value = "sweep"
+    widget.preset.value = "paper"
+    widget.fields["scan"].value = "serpentine"
+    widget.seed.value = 3
+    widget.follow_contrast.value = False
+    widget.tone_low.value, widget.tone_high.value = "1", "2"
+    widget.planes.value = CURRENT_PLANE
+    widget.sweep_parameter.value = "passes"
+    widget.sweep_values.value = "1 3"
+    assert widget.choices() == Choices(
+        mode="sweep",
+        preset="paper",
+        overrides={"scan": "serpentine"},
+        seed=3,
+        tone_limits=("1", "2"),
+        planes=CURRENT_PLANE,
+        sweep_parameter="passes",
+        sweep_text="1 3",
+    )
+    viewer.dims.set_current_step(0, 2)
+    plan = widget.plan()
+    assert plan.source_index == (2,) and plan.arguments["values"] == [1, 3]

@@ -1,0 +1,121 @@
+"""Runs in a napari thread worker: progress, cancel, responsiveness, errors."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+pytest.importorskip("napari")
+pytest.importorskip("pytestqt")
+
+from .helpers import RUN_TIMEOUT_MS, noise, run
+
+
+@pytest.mark.parametrize("mode, total", [("single", 3 * 2 + 1), ("sweep", 2 * 3 * 2 + 1)])
+def test_progress_bar_counts_every_plane_and_pass(qtbot, viewer, widget, slow_api, mode, total):
+    from napari._qt.widgets.qt_progress_bar import QtLabeledProgressBar
+    from qtpy.QtWidgets import QApplication
+
+    viewer.add_image(noise((3, 32, 32)), name="movie")
+    widget.fields["passes"].value = 2
+    widget.mode.value = mode
+    widget.sweep_values.value = "0.03, 0.05"
+    worker = widget.run(start=False)
+    # planes x passes (x values of a sweep), and assembling the result
+    assert worker.pbar.total == total
+    yields, bars = [], []
+
+    def on_yield(value):
+        yields.append(value)
+        if len(yields) == 3:  # the bar napari shows in its activity panel
+            bars.extend(
+                (bar.description_label.text(), bar.qt_progress_bar.maximum())
+                for top in QApplication.topLevelWidgets()
+                for bar in top.findChildren(QtLabeledProgressBar)
+            )
+
+    worker.yielded.connect(on_yield)
+    worker.start()
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    assert len(yields) == worker.pbar.total
+    assert ("Labyrinthine tiling: ", total) in bars, bars
+
+
+def test_cancel_stops_the_run_and_adds_no_layer(qtbot, viewer, widget, slow_api):
+    viewer.add_image(noise((10, 32, 32)), name="movie")
+    widget.fields["passes"].value = 3
+    layers_before = len(viewer.layers)
+    worker = widget.run(start=False)
+    yields = []
+
+    def cancel_on_first_yield(value):
+        yields.append(value)
+        widget.cancel()
+
+    worker.yielded.connect(cancel_on_first_yield)
+    worker.start()
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    assert len(viewer.layers) == layers_before
+    assert widget.last_result is None
+    assert len(yields) <= 2  # stopped at the next plane or pass
+    assert "Cancelled" in widget.status.value
+    assert widget.run_button.enabled and not widget.cancel_button.enabled
+    qtbot.waitUntil(
+        lambda: not any(t.name == "napari-labyrinth render" for t in threading.enumerate()),
+        timeout=RUN_TIMEOUT_MS,
+    )
+
+
+def test_the_viewer_stays_responsive_during_a_run(qtbot, viewer, widget, slow_api):
+    from qtpy.QtCore import QTimer
+
+    viewer.add_image(noise((5, 32, 32)), name="movie")
+    widget.fields["passes"].value = 2
+    worker = widget.run()
+    assert worker is not None  # run() returns at once, the worker renders
+    assert not widget.run_button.enabled and widget.cancel_button.enabled
+    assert widget.run() is None  # a second run waits for the first
+    viewer.add_points([[1, 1, 1]], name="added meanwhile")
+    ticks_while_running = []
+    timer = QTimer()
+    timer.timeout.connect(lambda: ticks_while_running.append(widget.worker is not None))
+    timer.start(5)
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    timer.stop()
+    assert sum(ticks_while_running) >= 5, "the event loop did not run during the render"
+    assert viewer.layers[-1].name.startswith("movie · labyrinth")
+
+
+def test_api_errors_reach_the_user_as_a_message(qtbot, viewer, widget, shown_errors):
+    viewer.add_image(np.arange(32 * 32, dtype=np.int64).reshape(32, 32), name="labels-like")
+    layers_before = len(viewer.layers)
+    run(qtbot, widget)
+    assert len(viewer.layers) == layers_before
+    assert len(shown_errors) == 1
+    assert "dtype int64 is not supported" in shown_errors[0]
+    assert "Traceback" not in shown_errors[0]
+
+
+def test_bad_choices_are_reported_before_a_worker_starts(viewer, widget, shown_errors):
+    assert widget.run() is None
+    assert "choose an image layer" in shown_errors[-1]
+    viewer.add_image(noise((32, 32)))
+    widget.mode.value = "sweep"
+    widget.sweep_values.value = "a, b"
+    assert widget.run() is None
+    assert "values must be numbers" in shown_errors[-1]
+    widget.mode.value = "single"
+    widget.follow_contrast.value = False
+    widget.tone_low.value, widget.tone_high.value = "5", "1"
+    assert widget.run() is None
+    assert "low < high" in shown_errors[-1]
+
+
+def test_error_notifications_are_napari_notifications(qtbot, viewer, widget):
+    from napari.utils.notifications import notification_manager
+
+    notification_manager.records.clear()
+    widget.run()  # no image layer
+    assert any("choose an image layer" in str(n.message) for n in notification_manager.records)
