@@ -7,30 +7,21 @@ drives it.
 
 from __future__ import annotations
 
-import dataclasses
-import json
-import subprocess
-import sys
-import threading
-import time
-
 import numpy as np
 import pytest
 
 import napari_labyrinth
-from napari_labyrinth import api, metrics, presets
+from napari_labyrinth import api, metrics
+from napari_labyrinth.core import presets
 from napari_labyrinth.plan import (
     CURRENT_PLANE,
     METADATA_KEY,
     METRIC_ROWS,
     SWEEP_PARAMETERS,
     Choices,
-    Failure,
     LayerSnapshot,
-    Outcome,
     data_to_physical,
     default_sweep_text,
-    diagnostics_record,
     edited_text,
     format_metric,
     make_plan,
@@ -39,68 +30,18 @@ from napari_labyrinth.plan import (
     overrides,
     parse_sweep_values,
     plane_label,
-    plane_offset,
     preset_field_values,
-    render,
-    result_layer,
     result_layer_kwargs,
     result_name,
-    splice_plane,
-    step_count,
+    run_steps,
     tone_limit_text,
     tone_limits,
     visible_plane,
 )
 
+from .plan_helpers import drive, noise
+
 FIELDS = [name for name in presets.PRESETS[presets.DEFAULT_PRESET] if name != "tones"]
-
-
-def _noise(shape, dtype=np.uint8, seed=0):
-    rng = np.random.default_rng(seed)
-    if np.dtype(dtype).kind == "f":
-        return rng.random(shape).astype(dtype)
-    return rng.integers(0, 256, shape).astype(dtype)
-
-
-def _drive(plan, on_step=None):
-    """Run the plan's generator to its end as the worker does: (yields, returned value)."""
-    steps = []
-    run = render(plan)
-    while True:
-        try:
-            step = next(run)
-        except StopIteration as stop:
-            return steps, stop.value
-        steps.append(step)
-        if on_step is not None:
-            on_step(step)
-
-
-def _reproduce(kwargs, source):
-    """Render again through the API from the layer's metadata record (after JSON)."""
-    record = json.loads(json.dumps(kwargs["metadata"][METADATA_KEY]))
-    if record["source_index"] is not None:
-        source = source[tuple(record["source_index"])]
-    return np.asarray(getattr(napari_labyrinth, record["function"])(source, **record["arguments"]))
-
-
-# -- the module stays Qt-free ------------------------------------------------------------------
-
-
-def test_plan_and_a_run_import_neither_napari_nor_qt():
-    code = (
-        "import sys, numpy as np;"
-        "from napari_labyrinth.plan import LayerSnapshot, Choices, make_plan, render;"
-        "plan = make_plan(LayerSnapshot.of(np.zeros((8, 8), np.uint8)), Choices());"
-        "list(render(plan));"
-        "print(sorted(m for m in ('napari', 'qtpy', 'PyQt6', 'PyQt5', 'PySide6', 'magicgui',"
-        " 'superqt', 'vispy') if m in sys.modules))"
-    )
-    result = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=False
-    )
-    assert result.returncode == 0, result.stderr
-    assert result.stdout.strip() == "[]"
 
 
 # -- text in, text out -------------------------------------------------------------------------
@@ -117,13 +58,14 @@ def test_sweep_values_are_parsed_and_checked():
         False,
     ]
     assert parse_sweep_values("border", "inside, wrap") == ["inside", "wrap"]
-    with pytest.raises(ValueError, match=r"passes values must be whole numbers; got '1\.5'"):
+    # the messages of the parameter table, as everywhere a value is typed
+    with pytest.raises(ValueError, match=r"passes must be a whole number; got '1\.5'"):
         parse_sweep_values("passes", "1.5")
-    with pytest.raises(
-        ValueError, match="border values must be inside or mirror or nearest or wrap"
-    ):
+    with pytest.raises(ValueError, match="passes must be between 0 and 1000, got 1001"):
+        parse_sweep_values("passes", "1 1001")
+    with pytest.raises(ValueError, match="border must be one of 'inside', 'mirror', 'nearest'"):
         parse_sweep_values("border", "outside")
-    with pytest.raises(ValueError, match="include_centre values must be true or false"):
+    with pytest.raises(ValueError, match="include_centre must be true or false"):
         parse_sweep_values("include_centre", "maybe")
     with pytest.raises(ValueError, match="at least one value"):
         parse_sweep_values("seed", " , ")
@@ -252,14 +194,6 @@ def test_metrics_table_content():
     assert len(cells) == len(METRIC_ROWS)
 
 
-def test_diagnostics_record_is_plain_json():
-    counts = np.array([(1, 3), (2, 4)], dtype=[("redrawn", np.int64), ("kept", np.int64)])
-    record = diagnostics_record(counts)
-    assert record == {"shape": [2], "counts": {"redrawn": [1, 2], "kept": [3, 4]}}
-    assert json.loads(json.dumps(record)) == record
-    assert diagnostics_record(None) is None
-
-
 # -- presets and overrides ---------------------------------------------------------------------
 
 
@@ -293,38 +227,25 @@ def test_visible_plane_is_rounded_and_clipped():
 
 
 @pytest.mark.parametrize(
-    "shape, index, rgb, offset",
+    "shape, rgb, passes, stack_passes, total",
     [
-        ((4, 5, 8, 8), (2, 3), False, 13),  # 2 * 5 + 3
-        ((4, 8, 8, 3), (2,), True, 6),  # every channel is a plane of the API
-        ((4, 8, 8, 4), (1,), True, 4),
-        ((4, 8, 8), (0,), False, 0),
+        ((3, 32, 32), False, [2], 0, 7),  # 3 planes x 2 passes + assembling
+        ((3, 32, 32), False, [3], 3, 13),  # stack: and the metrics of 3 passes
+        ((2, 8, 8, 4), True, [2], 0, 13),  # RGBA: alpha is kept, 3 channels render
+        ((8, 8, 3), True, [1], 0, 4),  # one RGB plane rendered alone
+        ((8, 8), False, [1, 2, 4], 0, 8),  # a sweep of passes on one plane
+        ((8, 8), False, [4], 0, 5),
     ],
 )
-def test_plane_offset_is_the_flat_index_of_the_plane(shape, index, rgb, offset):
-    assert plane_offset(shape, index, rgb) == offset
-
-
-@pytest.mark.parametrize(
-    "shape, n_leading, rgb, one_plane, passes, stack_passes, total",
-    [
-        ((3, 32, 32), 1, False, False, [2], 0, 7),  # 3 planes x 2 passes + assembling
-        ((3, 32, 32), 1, False, False, [3], 3, 13),  # stack: and the metrics of 3 passes
-        ((2, 8, 8, 4), 1, True, False, [2], 0, 13),  # RGBA: alpha is kept, 3 channels render
-        ((2, 8, 8, 3), 1, True, True, [1], 0, 4),
-        ((5, 8, 8), 1, False, True, [1, 2, 4], 0, 8),  # a sweep of passes on one plane
-        ((8, 8), 0, False, False, [4], 0, 5),
-    ],
-)
-def test_step_count(shape, n_leading, rgb, one_plane, passes, stack_passes, total):
-    assert step_count(shape, n_leading, rgb, one_plane, passes, stack_passes) == total
+def test_run_steps(shape, rgb, passes, stack_passes, total):
+    assert run_steps(shape, rgb, passes, stack_passes) == total
 
 
 # -- the plan ----------------------------------------------------------------------------------
 
 
 def test_a_single_run_of_a_stack_renders_every_plane():
-    data = _noise((3, 16, 16))
+    data = noise((3, 16, 16))
     plan = make_plan(LayerSnapshot.of(data, name="cell"), Choices(overrides={"passes": 2}))
     assert plan.function == "labyrinth" and plan.mode == "single"
     assert plan.data is data and plan.source_index is None and plan.lazy_source is None
@@ -359,7 +280,7 @@ def test_a_single_run_of_a_stack_renders_every_plane():
 
 
 def test_tone_limits_of_a_plan_follow_the_contrast_limits_unless_typed():
-    snapshot = LayerSnapshot.of(_noise((8, 8), np.uint16), contrast_limits=(1000, 60000))
+    snapshot = LayerSnapshot.of(noise((8, 8), np.uint16), contrast_limits=(1000, 60000))
     assert make_plan(snapshot, Choices()).arguments["tone_limits"] == (1000.0, 60000.0)
     typed = make_plan(snapshot, Choices(tone_limits=("10", "20")))
     assert typed.arguments["tone_limits"] == (10.0, 20.0)
@@ -379,7 +300,7 @@ def test_tone_limits_of_a_plan_follow_the_contrast_limits_unless_typed():
 def test_a_sweep_calls_labyrinth_sweep_without_the_swept_parameter(
     parameter, text, values, removed
 ):
-    snapshot = LayerSnapshot.of(_noise((2, 8, 8)))
+    snapshot = LayerSnapshot.of(noise((2, 8, 8)))
     choices = Choices(
         mode="sweep", preset="paper", sweep_parameter=parameter, sweep_text=text, seed=4
     )
@@ -392,19 +313,19 @@ def test_a_sweep_calls_labyrinth_sweep_without_the_swept_parameter(
     assert record["sweep"] == {"parameter": parameter, "values": values}
     passes_per_run = values if parameter == "passes" else [1] * len(values)  # paper: 1 pass
     assert plan.total_steps == 2 * sum(passes_per_run) + 1
-    steps, _ = _drive(plan)
+    steps, _ = drive(plan)
     assert steps == list(range(1, plan.total_steps)) + [plan.total_steps]
 
 
 def test_bad_choices_are_reported_by_the_plan():
-    snapshot = LayerSnapshot.of(_noise((8, 8)))
+    snapshot = LayerSnapshot.of(noise((8, 8)))
     with pytest.raises(ValueError, match="choose an image layer"):
         make_plan(None, Choices())
     with pytest.raises(ValueError, match="'big' is a multiscale layer"):
-        make_plan(LayerSnapshot.of(_noise((8, 8)), name="big", multiscale=True), Choices())
+        make_plan(LayerSnapshot.of(noise((8, 8)), name="big", multiscale=True), Choices())
     with pytest.raises(ValueError, match="mode must be one of"):
         make_plan(snapshot, Choices(mode="all"))
-    with pytest.raises(ValueError, match="values must be numbers"):
+    with pytest.raises(ValueError, match="variance_threshold must be a number; got 'a'"):
         make_plan(snapshot, Choices(mode="sweep", sweep_text="a, b"))
     with pytest.raises(ValueError, match="variance_threshold"):  # checked before the run
         make_plan(snapshot, Choices(mode="sweep", sweep_text="0.04, -1"))
@@ -413,7 +334,7 @@ def test_bad_choices_are_reported_by_the_plan():
 
 
 def test_the_current_plane_is_rendered_alone_at_its_place():
-    data = _noise((4, 16, 16), np.float32)
+    data = noise((4, 16, 16), np.float32)
     snapshot = LayerSnapshot.of(
         data,
         name="movie",
@@ -437,20 +358,20 @@ def test_the_current_plane_is_rendered_alone_at_its_place():
 
 
 def test_rgb_layers_render_each_channel_and_keep_no_colormap():
-    snapshot = LayerSnapshot.of(_noise((2, 8, 8, 3)), rgb=True, visible_index=(1,))
+    snapshot = LayerSnapshot.of(noise((2, 8, 8, 3)), rgb=True, visible_index=(1,))
     assert snapshot.ndim == 3
     plan = make_plan(snapshot, Choices(planes=CURRENT_PLANE, overrides={"passes": 1}))
     assert plan.arguments["channel_axis"] == -1
     assert plan.arguments["plane_offset"] == 3
     assert plan.total_steps == 3 + 1
     assert plan.layer_kwargs["rgb"] is True and "colormap" not in plan.layer_kwargs
-    grey = make_plan(LayerSnapshot.of(_noise((8, 8)), colormap="magma"), Choices())
+    grey = make_plan(LayerSnapshot.of(noise((8, 8)), colormap="magma"), Choices())
     assert grey.layer_kwargs["colormap"] == "magma"
 
 
 def test_lazy_data_plans_the_visible_plane_and_keeps_the_rest_lazy():
     da = pytest.importorskip("dask.array")
-    source = da.from_array(_noise((4, 16, 16)), chunks=(1, 16, 16))
+    source = da.from_array(noise((4, 16, 16)), chunks=(1, 16, 16))
     plan = make_plan(LayerSnapshot.of(source, visible_index=(3,)), Choices(mode="stack"))
     assert plan.source_index == (3,) and plan.lazy_source is source
     assert plan.arguments["plane_offset"] == 3
@@ -462,7 +383,7 @@ def test_lazy_data_plans_the_visible_plane_and_keeps_the_rest_lazy():
 
 def test_result_layer_keeps_the_input_transforms_and_display():
     snapshot = LayerSnapshot.of(
-        _noise((8, 8)),
+        noise((8, 8)),
         scale=(2.0, 3.0),
         translate=(5.0, 7.0),
         shear=(0.5,),
@@ -502,7 +423,7 @@ def test_result_layer_keeps_the_input_transforms_and_display():
 def test_an_extra_axis_embeds_rotation_and_shear_matrices():
     rotate = [[0.0, -1.0], [1.0, 0.0]]
     shear = [[1.0, 0.0], [0.5, 1.0]]  # lower triangular: napari keeps the matrix
-    snapshot = LayerSnapshot.of(_noise((8, 8)), rotate=rotate, shear=shear)
+    snapshot = LayerSnapshot.of(noise((8, 8)), rotate=rotate, shear=shear)
     kwargs = result_layer_kwargs(snapshot, "out", "variance_threshold", None)
     np.testing.assert_array_equal(kwargs["rotate"], [[1, 0, 0], [0, 0, -1], [0, 1, 0]])
     np.testing.assert_array_equal(kwargs["shear"], [[1, 0, 0], [0, 1, 0], [0, 0.5, 1]])
@@ -511,198 +432,12 @@ def test_an_extra_axis_embeds_rotation_and_shear_matrices():
 def test_a_plane_rendered_alone_moves_by_the_data_to_physical_image_of_its_index():
     rotate = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]  # a quarter turn of axes 0, 1
     snapshot = LayerSnapshot.of(
-        _noise((4, 8, 8)), scale=(10.0, 1.0, 1.0), translate=(3.0, 0.0, 0.0), rotate=rotate
+        noise((4, 8, 8)), scale=(10.0, 1.0, 1.0), translate=(3.0, 0.0, 0.0), rotate=rotate
     )
     np.testing.assert_allclose(data_to_physical(snapshot), [[0, -1, 0], [10, 0, 0], [0, 0, 1]])
     kwargs = result_layer_kwargs(snapshot, "out", None, (2,))
     np.testing.assert_allclose(kwargs["translate"], (3.0, 20.0, 0.0))
     # shear (0, 1) = 0.5 moves the plane (1, 2) of a 4-D layer to (1 + 0.5 * 2, 2)
-    sheared = LayerSnapshot.of(_noise((2, 3, 8, 8)), shear=(0.5, 0, 0, 0, 0, 0))
+    sheared = LayerSnapshot.of(noise((2, 3, 8, 8)), shear=(0.5, 0, 0, 0, 0, 0))
     kwargs = result_layer_kwargs(sheared, "out", "pass", (1, 2))
     np.testing.assert_allclose(kwargs["translate"], (0.0, 2.0, 2.0, 0.0, 0.0))
-
-
-# -- the run -----------------------------------------------------------------------------------
-
-
-def test_a_run_yields_every_step_and_reproduces_through_the_api():
-    data = _noise((3, 16, 16))
-    plan = make_plan(LayerSnapshot.of(data), Choices(overrides={"passes": 2}, seed=5))
-    steps, outcome = _drive(plan)
-    assert isinstance(outcome, Outcome)
-    assert len(steps) == plan.total_steps == 7
-    assert steps[-1] == plan.total_steps
-    assert outcome.metric_rows == [] and outcome.seconds >= 0
-    np.testing.assert_array_equal(outcome.data, api.labyrinth(data, passes=2, seed=5))
-    layer_data, kwargs = result_layer(plan, outcome)
-    assert layer_data is outcome.data
-    np.testing.assert_array_equal(layer_data, _reproduce(kwargs, data))
-    record = kwargs["metadata"][METADATA_KEY]
-    assert len(record["diagnostics"]["counts"]["redrawn"]) == 2  # one entry per pass
-    assert record["diagnostics_scope"] == "all planes"
-    assert "diagnostics" not in plan.layer_kwargs["metadata"][METADATA_KEY]  # plan untouched
-
-
-def test_a_stack_run_measures_every_pass_on_the_visible_plane():
-    data = _noise((2, 48, 48))
-    snapshot = LayerSnapshot.of(data, visible_index=(1,))
-    plan = make_plan(snapshot, Choices(mode="stack", overrides={"passes": 3}))
-    steps, outcome = _drive(plan)
-    assert len(steps) == plan.total_steps == 2 * 3 + 3 + 1
-    assert outcome.data.shape == (4, 2, 48, 48)
-    rows = outcome.metric_rows
-    assert [row["pass"] for row in rows] == [1, 2, 3]
-    assert {key for key, _, _ in METRIC_ROWS} <= set(rows[0])
-    for row in rows:
-        after, before = outcome.data[row["pass"], 1], outcome.data[row["pass"] - 1, 1]
-        assert row["changed"] == pytest.approx(100.0 * np.mean(after != before))
-    described = metrics.describe(data[1].astype(float), outcome.data[2, 1].astype(float))
-    assert rows[1]["edge_enhancement"] == pytest.approx(described["edge_enhancement"])
-    _, kwargs = result_layer(plan, outcome)
-    assert kwargs["metadata"][METADATA_KEY]["metrics"] == rows
-
-
-def test_metrics_of_a_plane_too_small_for_their_windows_are_nan():
-    plan = make_plan(LayerSnapshot.of(_noise((2, 2))), Choices(mode="stack"))
-    _, outcome = _drive(plan)
-    assert all(np.isnan(row["edge_enhancement"]) for row in outcome.metric_rows)
-    assert all(np.isfinite(row["changed"]) for row in outcome.metric_rows)
-
-
-@pytest.mark.parametrize("mode", ["single", "stack"])
-def test_a_plane_rendered_alone_gets_size_one_axes(mode):
-    data = _noise((4, 16, 16), np.float32)
-    snapshot = LayerSnapshot.of(data, visible_index=(2,), contrast_limits=(0.0, 1.0))
-    plan = make_plan(snapshot, Choices(mode=mode, planes=CURRENT_PLANE, overrides={"passes": 2}))
-    steps, outcome = _drive(plan)
-    assert len(steps) == plan.total_steps
-    layer_data, kwargs = result_layer(plan, outcome)
-    assert layer_data.shape == ((1, 16, 16) if mode == "single" else (3, 1, 16, 16))
-    record = kwargs["metadata"][METADATA_KEY]
-    assert record["diagnostics_scope"] == "the rendered plane"
-    whole = getattr(api, plan.function)(data, passes=2, tone_limits=(0.0, 1.0))
-    expected = whole[2] if mode == "single" else whole[:, 2]
-    np.testing.assert_array_equal(outcome.data, expected)
-    reproduced = _reproduce(kwargs, data).reshape(layer_data.shape)
-    np.testing.assert_array_equal(np.asarray(layer_data), reproduced)
-
-
-def test_a_sweep_records_the_diagnostics_of_every_value():
-    data = _noise((16, 16))
-    choices = Choices(mode="sweep", sweep_parameter="scan", sweep_text="raster serpentine")
-    plan = make_plan(LayerSnapshot.of(data), choices)
-    _, outcome = _drive(plan)
-    layer_data, kwargs = result_layer(plan, outcome)
-    assert layer_data.shape == (2, 16, 16)
-    np.testing.assert_array_equal(layer_data[1], api.labyrinth(data, scan="serpentine"))
-    assert len(kwargs["metadata"][METADATA_KEY]["diagnostics"]) == 2
-
-
-def test_a_seed_sweep_renders_with_each_seed():
-    data = _noise((16, 16))
-    choices = Choices(mode="sweep", seed=9, sweep_parameter="seed", sweep_text="1 2")
-    plan = make_plan(LayerSnapshot.of(data), choices)
-    assert "seed" not in plan.arguments
-    assert plan.layer_kwargs["metadata"][METADATA_KEY]["seed"] == 9
-    assert plan.name == "image · sweep seed 1, 2 · 4 passes · preset labyrinth"
-    _, outcome = _drive(plan)
-    layer_data, kwargs = result_layer(plan, outcome)
-    np.testing.assert_array_equal(layer_data[1], api.labyrinth(data, seed=2))
-    np.testing.assert_array_equal(layer_data, _reproduce(kwargs, data))
-
-
-@pytest.mark.parametrize("mode", ["single", "stack", "sweep"])
-def test_a_lazy_run_loads_the_visible_plane_only(mode):
-    da = pytest.importorskip("dask.array")
-    data = _noise((5, 16, 16))
-    loaded = []
-
-    def count(block, block_info=None):
-        loaded.append(block_info[0]["array-location"][0][0])
-        return block
-
-    lazy = da.from_array(data, chunks=(1, 16, 16)).map_blocks(count, dtype=data.dtype)
-    snapshot = LayerSnapshot.of(lazy, visible_index=(3,))
-    choices = Choices(mode=mode, overrides={"passes": 2}, sweep_text="0.03, 0.05")
-    plan = make_plan(snapshot, choices)
-    loaded.clear()
-    steps, outcome = _drive(plan)
-    assert set(loaded) == {3}, "only the visible plane may be loaded"
-    assert len(steps) == plan.total_steps
-    assert isinstance(outcome.data, da.Array)
-    layer_data, kwargs = result_layer(plan, outcome)
-    record = kwargs["metadata"][METADATA_KEY]
-    assert record["diagnostics_scope"] == "the plane on screen (the others render lazily)"
-    assert record["diagnostics_plane"] == [3]
-    np.testing.assert_array_equal(np.asarray(layer_data), _reproduce(kwargs, data))
-
-
-@pytest.fixture
-def slow_api(monkeypatch):
-    """Make every plane and pass of the API take at least 20 ms, so that a run can be cancelled."""
-
-    def slowed(function):
-        def wrapper(image, *, progress=None, **options):
-            def slow_progress(done, total):
-                time.sleep(0.02)
-                progress(done, total)
-
-            return function(image, progress=slow_progress, **options)
-
-        return wrapper
-
-    for name in ("labyrinth", "labyrinth_stack", "labyrinth_sweep"):
-        monkeypatch.setattr(api, name, slowed(getattr(api, name)))
-
-
-def test_cancel_stops_a_run_at_its_next_step_and_returns_nothing(slow_api):
-    plan = make_plan(LayerSnapshot.of(_noise((10, 32, 32))), Choices(overrides={"passes": 3}))
-    steps, outcome = _drive(plan, on_step=lambda _: plan.cancel.set())
-    assert outcome is None
-    assert len(steps) <= 2  # stopped at the next plane or pass
-    for thread in threading.enumerate():  # the helper thread ends too
-        if thread.name == "napari-labyrinth render":
-            thread.join(timeout=60)
-            assert not thread.is_alive()
-
-
-def test_a_run_cancelled_before_it_starts_yields_nothing():
-    plan = make_plan(LayerSnapshot.of(_noise((8, 8))), Choices())
-    plan.abort_requested = lambda: True  # napari's activity panel asked to stop
-    assert _drive(plan) == ([], None)
-
-
-def test_api_errors_come_back_as_a_message():
-    data = np.arange(32 * 32, dtype=np.int64).reshape(32, 32)
-    plan = make_plan(LayerSnapshot.of(data, contrast_limits=(0, 1023)), Choices())
-    steps, outcome = _drive(plan)
-    assert steps == []
-    assert isinstance(outcome, Failure)
-    assert "dtype int64 is not supported" in outcome.message
-
-
-def test_splice_plane_replaces_one_plane_of_a_lazy_array():
-    da = pytest.importorskip("dask.array")
-    lazy = da.zeros((3, 4, 2, 2), chunks=(1, 1, 2, 2), dtype=int)
-    plane = np.array([[1, 2], [3, 4]])
-    spliced = splice_plane(lazy, plane, (1, 3), 0)
-    expected = np.zeros((3, 4, 2, 2), dtype=int)
-    expected[1, 3] = plane
-    np.testing.assert_array_equal(spliced.compute(), expected)
-    # a stack: the plane of every pass, on the axis after the pass axis
-    passes = np.arange(8).reshape(2, 2, 2)
-    spliced = splice_plane(da.zeros((2, 3, 2, 2), dtype=int), passes, (2,), 1)
-    expected = np.zeros((2, 3, 2, 2), dtype=int)
-    expected[:, 2] = passes
-    np.testing.assert_array_equal(spliced.compute(), expected)
-
-
-def test_layer_snapshot_defaults_are_napari_defaults():
-    snapshot = LayerSnapshot.of(np.zeros((3, 8, 8, 3)), rgb=True)
-    assert snapshot.ndim == 3
-    assert snapshot.axis_labels == ("-3", "-2", "-1")
-    assert snapshot.units == ("pixel",) * 3
-    assert snapshot.shear.shape == (3,) and snapshot.affine.shape == (4, 4)
-    assert snapshot.visible_index == (0,)
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        snapshot.name = "other"

@@ -140,8 +140,15 @@ def render_lazy(
 
 
 def is_lazy(image: Any) -> bool:
-    """Whether ``image`` is a dask array (checked without importing dask)."""
+    """Whether ``image`` is a dask array (checked without importing dask): the API renders
+    it lazily."""
     return type(image).__module__.split(".")[0] == "dask" and hasattr(image, "chunks")
+
+
+def is_in_memory(data: Any) -> bool:
+    """Whether ``data`` is a numpy array; other array-likes (dask, zarr, ...) load planes on
+    demand, so the widget renders only the plane on screen and leaves the rest lazy."""
+    return isinstance(data, np.ndarray)
 
 
 def default_tone_limits(image: Any, channel_axis: int | None = None) -> tuple[float, float]:

@@ -1,46 +1,37 @@
-"""What a widget run will do, and the run itself: no napari, no Qt.
+"""What a widget run will do: no napari, no Qt.
 
 The napari widget (:mod:`napari_labyrinth._qt`) takes two plain snapshots on
 the main thread when Run is pressed: the input layer (:class:`LayerSnapshot`)
 and the user's choices (:class:`Choices`). :func:`make_plan` turns them into
-a :class:`RenderPlan`: one call of the public API
+a :class:`RenderPlan`: one run of :func:`~napari_labyrinth.labyrinth_steps`
+in a mode, which planes it renders, its tone limits and plane offset, the
+progress total, and the result layer's name, transforms, contrast settings
+and metadata record, from which the API call it names
 (:func:`~napari_labyrinth.labyrinth`, :func:`~napari_labyrinth.labyrinth_stack`
-or :func:`~napari_labyrinth.labyrinth_sweep`), which planes it renders, its
-tone limits and plane offset, the progress total, and the result layer's
-name, transforms, contrast settings and metadata record, from which the API
-call reproduces the result exactly.
+or :func:`~napari_labyrinth.labyrinth_sweep`) reproduces the result exactly.
+:mod:`napari_labyrinth.run` carries a plan out.
 
-:func:`render` is the run: a generator that yields after every plane and pass
-(napari draws a determinate progress bar from its yields) and returns an
-:class:`Outcome`, a :class:`Failure` with a message for the user, or None when
-cancelled. It reads only the plan, never the viewer, so it runs in a worker
-thread, or directly in a script or a test. :func:`result_layer` turns the
-outcome into the data and keyword arguments of the result layer.
-
-How a run stays cancellable: the API call runs in a helper thread; its
-``progress`` callback, called after every plane and pass, forwards the count
-to the generator, which yields it, and raises when the user cancelled, so a
-run stops at the next plane or pass (:func:`_api_steps`).
-
-Lazy (dask-backed) input layers: only the plane the viewer shows is loaded
-and rendered by the run; the other planes of the result stay lazy and are
-rendered by napari when the slider reaches them (:func:`splice_plane`).
+The fields of the widget's form and the sweep's values are read with the
+parameter table (:mod:`napari_labyrinth.core.parameters`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import queue
 import re
 import threading
-import time
-from collections.abc import Callable, Generator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
-from . import __version__, api, metrics, parameters, presets
+from . import __version__, metrics
+from .core.parameters import PARAMETERS, SWEEPABLE, format_value
+from .core.planes import first_plane_index, step_count
+from .core.presets import DEFAULT_PRESET, PRESETS, resolve_parameters, resolve_sweep
+from .core.tone_scale import validate_tone_limits
+from .lazy import is_in_memory
 
 __all__ = [
     "ALL_PLANES",
@@ -48,15 +39,11 @@ __all__ = [
     "METADATA_KEY",
     "MODES",
     "Choices",
-    "Failure",
     "LayerSnapshot",
-    "Outcome",
     "RenderPlan",
     "default_sweep_text",
     "make_plan",
     "parse_sweep_values",
-    "render",
-    "result_layer",
     "result_name",
 ]
 
@@ -70,26 +57,20 @@ MODES = ("single", "stack", "sweep")
 #: Which planes of an nD layer to render.
 ALL_PLANES, CURRENT_PLANE = "all planes", "current plane"
 
-#: API function each mode calls.
+#: API function each mode calls (the metadata record reproduces a run with it).
 FUNCTIONS = {"single": "labyrinth", "stack": "labyrinth_stack", "sweep": "labyrinth_sweep"}
 
-#: The options a parameter may take, for the parameters that are options.
-OPTION_CHOICES = {
-    "variance_ratio": parameters.VARIANCE_RATIOS,
-    "variance_action": parameters.VARIANCE_ACTIONS,
-    "condition_order": parameters.CONDITION_ORDERS,
-    "border": parameters.BORDERS,
-    "on_exhausted": parameters.ON_EXHAUSTED,
-    "scan": parameters.SCANS,
-}
+#: Parameters a sweep may vary: every parameter that takes one word, and the seed.
+SWEEP_PARAMETERS = tuple(SWEEPABLE)
 
-#: Parameters a sweep may vary: every parameter but ``tones``, and the seed.
-SWEEP_PARAMETERS = tuple(name for name in parameters.PARAMETER_NAMES if name != "tones") + (
-    "seed",
-)
-FLOAT_PARAMETERS = ("mean_threshold", "variance_threshold")
-INT_PARAMETERS = ("tone_ranges", "max_tries", "passes", "seed")
-_SYMBOLS = {"mean_threshold": "t", "variance_threshold": "V"}
+#: Values a sweep proposes for the parameters whose proposal is not derived from
+#: their kind (floats: around the current value; options: every choice).
+_SWEEP_PROPOSALS = {
+    "passes": "1, 2, 4, 8",
+    "seed": "0, 1, 2",
+    "tone_ranges": "2, 3, 5",
+    "max_tries": "1, 10, 100",
+}
 
 #: Rows of the per-pass metrics (one column per pass): (metric key, row header,
 #: the function whose docstring's first line describes the row).
@@ -219,7 +200,7 @@ class Choices:
     """
 
     mode: str = "single"
-    preset: str = presets.DEFAULT_PRESET
+    preset: str = DEFAULT_PRESET
     overrides: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     seed: int = 0
     tone_limits: tuple[Any, Any] | None = None
@@ -251,37 +232,14 @@ def parse_sweep_values(parameter: str, text: str) -> list[Any]:
     ValueError
         If the text holds no value or a value of the wrong type.
     """
-    if parameter not in SWEEP_PARAMETERS:
+    if parameter not in SWEEPABLE:
         raise ValueError(
             f"cannot sweep {parameter!r}: choose one of {', '.join(SWEEP_PARAMETERS)}"
         )
     items = [item for item in re.split(r"[,;\s]+", text.strip()) if item]
     if not items:
         raise ValueError(f"type at least one value of {parameter} to sweep, e.g. 0.47, 0.50, 0.53")
-    values: list[Any] = []
-    for item in items:
-        try:
-            if parameter in FLOAT_PARAMETERS:
-                values.append(float(item))
-            elif parameter in INT_PARAMETERS:
-                values.append(int(item))
-            elif parameter == "include_centre":
-                lowered = item.lower()
-                if lowered not in ("true", "false", "yes", "no", "1", "0"):
-                    raise ValueError
-                values.append(lowered in ("true", "yes", "1"))
-            else:
-                if item not in OPTION_CHOICES[parameter]:
-                    raise ValueError
-                values.append(item)
-        except ValueError:
-            expected = {
-                **dict.fromkeys(FLOAT_PARAMETERS, "numbers"),
-                **dict.fromkeys(INT_PARAMETERS, "whole numbers"),
-                "include_centre": "true or false",
-            }.get(parameter) or " or ".join(OPTION_CHOICES[parameter])
-            raise ValueError(f"{parameter} values must be {expected}; got {item!r}") from None
-    return values
+    return [SWEEPABLE[parameter].parse(item) for item in items]
 
 
 def default_sweep_text(parameter: str, current: Any) -> str:
@@ -289,21 +247,16 @@ def default_sweep_text(parameter: str, current: Any) -> str:
 
     ``variance_threshold`` at the paper's 0.50 gives ``"0.47, 0.5, 0.53"`` (Fig. 3).
     """
-    if parameter in FLOAT_PARAMETERS:
+    kind = SWEEPABLE[parameter].kind
+    if kind == "float":
         step = 0.03 if current >= 0.2 else 0.02
         values = [max(0.0, current - step), current, current + step]
         return ", ".join(f"{v:.4g}" for v in values)
-    if parameter == "passes":
-        return "1, 2, 4, 8"
-    if parameter == "seed":
-        return "0, 1, 2"
-    if parameter == "tone_ranges":
-        return "2, 3, 5"
-    if parameter == "max_tries":
-        return "1, 10, 100"
-    if parameter == "include_centre":
+    if kind == "choice":
+        return ", ".join(SWEEPABLE[parameter].choices)
+    if kind == "bool":
         return "false, true"
-    return ", ".join(OPTION_CHOICES[parameter])
+    return _SWEEP_PROPOSALS[parameter]
 
 
 def tone_limits(
@@ -326,24 +279,18 @@ def tone_limits(
             raise ValueError(
                 f"tone limits must be numbers, got {typed_low!r} and {typed_high!r}"
             ) from None
-    if not (math.isfinite(low) and math.isfinite(high) and low < high):
-        raise ValueError(f"tone limits must be finite with low < high, got ({low}, {high})")
-    return low, high
+    try:
+        return validate_tone_limits((low, high))
+    except ValueError:
+        raise ValueError(
+            f"tone limits must be finite with low < high, got ({low}, {high})"
+        ) from None
 
 
 def tone_limit_text(contrast_limits: Sequence[float]) -> tuple[str, str]:
     """Contrast limits as the text of the tone limit fields."""
     low, high = (float(v) for v in contrast_limits)
     return f"{low:.6g}", f"{high:.6g}"
-
-
-def _format_value(value: Any) -> str:
-    """A parameter value in a layer name."""
-    if isinstance(value, bool):
-        return str(value).lower()
-    if isinstance(value, float):
-        return f"{value:.4g}"
-    return str(value)
 
 
 def _plural(count: int, word: str) -> str:
@@ -369,7 +316,7 @@ def result_name(
     """
     if mode == "sweep" and sweep is not None:
         parameter, values = sweep
-        shown = ", ".join(_format_value(v) for v in values[:4]) + (" …" if len(values) > 4 else "")
+        shown = ", ".join(format_value(v) for v in values[:4]) + (" …" if len(values) > 4 else "")
         parts = [source, f"sweep {parameter} {shown}"]
         if parameter != "passes":
             parts.append(_plural(passes, "pass"))
@@ -377,7 +324,7 @@ def result_name(
         parts = [source, "labyrinth" if mode == "single" else "stack", _plural(passes, "pass")]
     parts.append(f"preset {preset}")
     edits = [
-        f"{_SYMBOLS.get(name, name)}={_format_value(value)}"
+        f"{PARAMETERS[name].symbol or name}={format_value(value)}"
         for name, value in overrides.items()
         if name != "passes"
     ]
@@ -445,7 +392,7 @@ def _differs(value: Any, base: Any) -> bool:
 
 def preset_field_values(preset: str, names: Sequence[str]) -> dict[str, Any]:
     """The values the fields ``names`` take from ``preset`` (tone ranges as a count)."""
-    values = presets.PRESETS[preset]
+    values = PRESETS[preset]
     return {
         name: _tone_range_count(values[name]) if name == "tone_ranges" else values[name]
         for name in names
@@ -477,40 +424,19 @@ def visible_plane(coordinates: Sequence[float], shape: Sequence[int]) -> tuple[i
     return tuple(int(np.clip(np.round(c), 0, size - 1)) for c, size in zip(coordinates, shape))
 
 
-def plane_offset(shape: tuple[int, ...], index: tuple[int, ...], rgb: bool) -> int:
-    """Flat index, among the API's planes of the whole data, of the first plane at ``index``.
-
-    The API takes every leading axis as planes, colour channels (last axis of
-    napari's RGB data) last among them.
-    """
-    channels = shape[-1] if rgb else 1
-    return int(np.ravel_multi_index(index, shape[: len(index)])) * channels
-
-
-def step_count(
+def run_steps(
     shape: tuple[int, ...],
-    n_leading: int,
     rgb: bool,
-    one_plane: bool,
     passes_per_run: Sequence[int],
     stack_passes: int = 0,
 ) -> int:
-    """Number of yields of a run (the progress bar's total).
+    """Number of yields of a run of data of ``shape`` (the progress bar's total).
 
-    One per plane and pass of every run (colour: per channel, alpha kept),
-    one per pass whose metrics a stack computes, and one for assembling the
-    result.
+    One per plane and pass of every run (colour: per channel, alpha not
+    rendered), one per pass whose metrics a stack computes, and one for
+    assembling the result.
     """
-    planes_rendered = 1 if one_plane else math.prod(shape[:n_leading])
-    if rgb:
-        channels = shape[-1]
-        planes_rendered *= 3 if channels == 4 else channels
-    return planes_rendered * sum(passes_per_run) + stack_passes + 1
-
-
-def _is_lazy(data: Any) -> bool:
-    """True for array-likes other than numpy arrays (dask, zarr, ...): load planes on demand."""
-    return not isinstance(data, np.ndarray)
+    return step_count(shape, -1 if rgb else None, passes_per_run) + stack_passes + 1
 
 
 # -- the plan ----------------------------------------------------------------------------------
@@ -580,7 +506,7 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     """
     _check_input(snapshot, choices.mode)
     mode, preset, edits = choices.mode, choices.preset, dict(choices.overrides)
-    resolved = api.resolve_parameters(preset, **edits)
+    resolved = resolve_parameters(preset, **edits)
     seed = int(choices.seed)
     typed = choices.tone_limits
     limits = tone_limits(snapshot.contrast_limits if typed is None else None, typed)
@@ -597,18 +523,18 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     source, n_leading = snapshot.data, snapshot.ndim - 2
     visible_index = tuple(snapshot.visible_index)
     partial = choices.planes == CURRENT_PLANE and n_leading > 0
-    lazy = _is_lazy(source) and n_leading > 0 and not partial
+    lazy = not is_in_memory(source) and n_leading > 0 and not partial
     source_index = visible_index if partial or lazy else None
     if source_index is not None:
-        arguments["plane_offset"] = plane_offset(source.shape, source_index, snapshot.rgb)
+        arguments["plane_offset"] = first_plane_index(
+            source.shape, source_index, -1 if snapshot.rgb else None
+        )
     passes_per_run = [resolved.passes]
     if sweep:  # one run per value
         passes_per_run = sweep[1] if sweep[0] == "passes" else passes_per_run * len(sweep[1])
     stack_passes = resolved.passes if mode == "stack" else 0
-    one_plane = source_index is not None
-    total = step_count(
-        source.shape, n_leading, snapshot.rgb, one_plane, passes_per_run, stack_passes
-    )
+    rendered_shape = source.shape[0 if source_index is None else len(source_index) :]
+    total = run_steps(rendered_shape, snapshot.rgb, passes_per_run, stack_passes)
 
     label = plane_label(snapshot.axis_labels, visible_index) if partial else ""
     name = result_name(snapshot.name, mode, resolved.passes, preset, edits, seed, sweep, label)
@@ -668,9 +594,7 @@ def _sweep(
 ) -> tuple[str, list[Any]]:
     """The swept parameter and its values, each checked now rather than in the run."""
     values = parse_sweep_values(parameter, text)
-    for value in values:
-        if parameter != "seed":
-            api.resolve_parameters(preset, **dict(edits, **{parameter: value}))
+    resolve_sweep(preset, edits, 0, parameter, values)
     return parameter, list(values)
 
 
@@ -765,235 +689,3 @@ def result_layer_kwargs(
     if not snapshot.rgb:
         kwargs["colormap"] = snapshot.colormap
     return kwargs
-
-
-# -- the run -----------------------------------------------------------------------------------
-
-
-class Cancelled(Exception):
-    """Raised in the progress callback when the user cancelled."""
-
-
-@dataclasses.dataclass
-class Failure:
-    """A run that failed: the message for the user."""
-
-    message: str
-
-
-@dataclasses.dataclass
-class Outcome:
-    """What a finished run hands back to the main thread."""
-
-    data: Any
-    diagnostics: Any
-    metric_rows: list[dict[str, float]]
-    seconds: float
-
-
-def _api_steps(
-    function: str,
-    data: Any,
-    arguments: dict[str, Any],
-    should_stop: Callable[[], bool],
-) -> Generator[int, None, Any]:
-    """Call the API function named ``function``; yield after each plane and pass.
-
-    Returns the call's result (as the generator's value). The call stops at
-    its next plane or pass once ``should_stop()`` is true (raising
-    :class:`Cancelled`). The one place that knows how the API reports its
-    progress.
-    """
-    return (yield from _call_with_progress(getattr(api, function), data, arguments, should_stop))
-
-
-def _call_with_progress(
-    function: Callable[..., Any],
-    data: Any,
-    arguments: dict[str, Any],
-    should_stop: Callable[[], bool],
-) -> Generator[int, None, Any]:
-    """Run an API call in a helper thread; yield after each plane and pass."""
-    events: queue.SimpleQueue = queue.SimpleQueue()
-
-    def report(done: int, _total: int) -> None:
-        if should_stop():
-            raise Cancelled
-        events.put(("progress", done))
-
-    def target() -> None:
-        try:
-            events.put(("done", function(data, progress=report, **arguments)))
-        except BaseException as exc:  # noqa: BLE001 - handed to the generator, raised there
-            events.put(("error", exc))
-
-    if should_stop():
-        raise Cancelled
-    thread = threading.Thread(target=target, name="napari-labyrinth render", daemon=True)
-    thread.start()
-    while True:
-        kind, value = events.get()
-        if kind == "progress":
-            yield value
-            continue
-        thread.join()
-        if kind == "error":
-            raise value
-        return value
-
-
-def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
-    """The run: render, yield after each plane and pass, compute the metrics.
-
-    Returns an :class:`Outcome`, a :class:`Failure` with a message for the
-    user, or None when cancelled (``plan.cancel`` set, or ``plan.abort_requested()``).
-    """
-    started = time.perf_counter()
-    try:
-        data = np.asarray(plan.data)  # for lazy input: loads one plane only
-        result, diagnostics = yield from _api_steps(
-            plan.function, data, dict(plan.arguments, return_diagnostics=True), plan.should_stop
-        )
-        metric_rows = []
-        if plan.mode == "stack":
-            metric_rows = yield from _stack_metrics(plan, data, result)
-        if plan.lazy_source is not None:
-            offset = 0 if plan.mode == "single" else 1
-            result = splice_plane(_lazy_result(plan), result, plan.visible_index, offset)
-        if plan.should_stop():
-            return None
-        yield plan.total_steps
-        return Outcome(result, diagnostics, metric_rows, time.perf_counter() - started)
-    except Cancelled:
-        return None
-    except (TypeError, ValueError) as exc:  # the API names the parameter at fault
-        return Failure(str(exc))
-    except MemoryError:
-        return Failure("not enough memory: render the current plane only, or a smaller image")
-    except Exception as exc:  # noqa: BLE001 - anything else still reaches the user as a message
-        return Failure(f"{type(exc).__name__}: {exc}")
-
-
-def _grey(plane: np.ndarray, rgb: bool) -> np.ndarray:
-    """A 2-D float plane for the metrics: colour planes averaged over R, G and B."""
-    plane = np.asarray(plane, dtype=np.float64)
-    return plane[..., :3].mean(axis=-1) if rgb else plane
-
-
-def _stack_metrics(
-    plan: RenderPlan, data: np.ndarray, stack: np.ndarray
-) -> Generator[int, None, list[dict[str, float]]]:
-    """Pattern and edge metrics of every pass on the visible plane."""
-    index = () if plan.source_index is not None else plan.visible_index
-    original = _grey(data[index], plan.rgb)
-    rows = []
-    previous = np.asarray(stack[(0,) + index])
-    for pass_number in range(1, stack.shape[0]):
-        if plan.should_stop():
-            raise Cancelled
-        rendered = np.asarray(stack[(pass_number,) + index])
-        try:
-            described = metrics.describe(original, _grey(rendered, plan.rgb))
-        except ValueError:  # e.g. a plane too small for the metrics' windows
-            described = {key: math.nan for key, _, function in METRIC_ROWS if function}
-        row = {"pass": pass_number, **described}
-        changed = rendered != previous
-        if plan.rgb:
-            changed = changed.any(axis=-1)
-        row["changed"] = 100.0 * float(changed.mean())
-        rows.append(row)
-        previous = rendered
-        yield pass_number
-    return rows
-
-
-def _as_dask(data: Any, n_leading: int):
-    """``data`` as a dask array with one chunk per plane."""
-    import dask.array as da
-
-    if isinstance(data, da.Array):
-        return data
-    chunks = (1,) * n_leading + tuple(data.shape[n_leading:])
-    return da.from_array(data, chunks=chunks)
-
-
-def _lazy_result(plan: RenderPlan):
-    """The whole result as a lazy dask array (the API renders dask input lazily)."""
-    import dask.array as da
-
-    source = _as_dask(plan.lazy_source, len(plan.visible_index))
-    arguments = {k: v for k, v in plan.arguments.items() if k != "plane_offset"}
-    result = getattr(api, plan.function)(source, **arguments)
-    if not isinstance(result, da.Array):
-        raise TypeError("this version of napari_labyrinth.api does not render dask arrays lazily")
-    return result
-
-
-def splice_plane(lazy, rendered_plane: np.ndarray, index: tuple[int, ...], axis: int):
-    """``lazy`` with the plane at ``index`` (on the axes from ``axis``) replaced by an array.
-
-    The visible plane, rendered by the run, goes into the lazy result so
-    that napari shows it at once without rendering it again.
-    """
-    import dask.array as da
-
-    if not index:
-        block = np.asarray(rendered_plane).reshape(lazy.shape)
-        return da.from_array(block, chunks=block.shape)
-    position = index[0]
-
-    def take(part: slice):
-        return lazy[(slice(None),) * axis + (part,)]
-
-    parts = []
-    if position > 0:
-        parts.append(take(slice(0, position)))
-    parts.append(
-        splice_plane(take(slice(position, position + 1)), rendered_plane, index[1:], axis + 1)
-    )
-    if position + 1 < lazy.shape[axis]:
-        parts.append(take(slice(position + 1, None)))
-    return da.concatenate(parts, axis=axis) if len(parts) > 1 else parts[0]
-
-
-# -- the result layer --------------------------------------------------------------------------
-
-
-def diagnostics_record(diagnostics: np.ndarray | None) -> dict[str, Any] | None:
-    """JSON-friendly form of the API's structured diagnostics array."""
-    if diagnostics is None:
-        return None
-    return {
-        "shape": list(diagnostics.shape),
-        "counts": {name: diagnostics[name].tolist() for name in diagnostics.dtype.names},
-    }
-
-
-def result_layer(plan: RenderPlan, outcome: Outcome) -> tuple[Any, dict[str, Any]]:
-    """Data and keyword arguments of the layer that shows a finished run.
-
-    The metadata record gains the diagnostics (and which planes they count)
-    and the per-pass metrics. A single plane rendered alone gets size-1
-    leading axes that keep it at its place in the input.
-    """
-    kwargs = dict(plan.layer_kwargs)
-    record = dict(kwargs["metadata"][METADATA_KEY])
-    if plan.mode == "sweep":
-        record["diagnostics"] = [diagnostics_record(d) for d in outcome.diagnostics]
-    else:
-        record["diagnostics"] = diagnostics_record(outcome.diagnostics)
-    if plan.source_index is None:
-        record["diagnostics_scope"] = "all planes"
-    elif plan.lazy_source is not None:
-        record["diagnostics_scope"] = "the plane on screen (the others render lazily)"
-        record["diagnostics_plane"] = list(plan.visible_index)
-    else:
-        record["diagnostics_scope"] = "the rendered plane"
-    record["metrics"] = outcome.metric_rows
-    kwargs["metadata"] = {METADATA_KEY: record}
-    data = outcome.data
-    if record["source_index"] is not None:
-        n_extra = 0 if plan.mode == "single" else 1
-        index = record["source_index"]
-        data = data.reshape(data.shape[:n_extra] + (1,) * len(index) + data.shape[n_extra:])
-    return data, kwargs

@@ -7,17 +7,28 @@ import pytest
 pytest.importorskip("napari")
 pytest.importorskip("pytestqt")
 
-from napari_labyrinth import parameters
 from napari_labyrinth._qt.form import MAIN_FIELDS, READING_FIELDS
-from napari_labyrinth.plan import CURRENT_PLANE, OPTION_CHOICES, Choices
+from napari_labyrinth.core.parameters import PARAMETERS, SEED
+from napari_labyrinth.plan import CURRENT_PLANE, Choices
 
 from .helpers import noise
 
 
-def test_the_fields_cover_every_parameter_but_the_tones_with_the_plan_s_options():
-    assert set(MAIN_FIELDS) | set(READING_FIELDS) == set(parameters.PARAMETER_NAMES) - {"tones"}
-    options = {name: choices for name, (choices, _) in READING_FIELDS.items() if choices}
-    assert options == OPTION_CHOICES
+def test_the_fields_cover_every_parameter_but_the_tones_as_the_table_says(widget):
+    assert set(MAIN_FIELDS) | set(READING_FIELDS) == set(PARAMETERS) - {"tones"}
+    assert all(PARAMETERS[name].reading for name in READING_FIELDS)
+    for name, field in [*widget.fields.items(), ("seed", widget.seed)]:
+        parameter = SEED if name == "seed" else PARAMETERS[name]
+        assert parameter.tooltip in field.tooltip, name
+        if parameter.kind == "choice":
+            assert tuple(field.choices) == parameter.choices, name
+        elif parameter.kind == "bool":
+            assert field.text == parameter.label
+        else:
+            assert field.label == parameter.label, name
+            assert field.min == parameter.low, name
+            if parameter.high is not None and parameter.high < 2**63:
+                assert field.max == parameter.high, name
 
 
 def test_a_sweep_proposes_values_around_the_field_s_value(widget):

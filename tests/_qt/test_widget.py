@@ -14,8 +14,9 @@ pytest.importorskip("napari")
 pytest.importorskip("pytestqt")
 
 import napari_labyrinth
-from napari_labyrinth import api, presets
+from napari_labyrinth import api
 from napari_labyrinth._qt.widget import LabyrinthWidget
+from napari_labyrinth.core import presets
 from napari_labyrinth.plan import CURRENT_PLANE, METADATA_KEY
 
 from .helpers import noise, reproduce, result_data, run

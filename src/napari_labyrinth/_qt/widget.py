@@ -21,17 +21,9 @@ from qtpy.QtCore import Qt
 from qtpy.QtWidgets import QScrollArea, QVBoxLayout, QWidget
 from superqt import QCollapsible
 
-from .. import presets
-from ..plan import (
-    MODES,
-    SWEEP_PARAMETERS,
-    Choices,
-    Failure,
-    Outcome,
-    RenderPlan,
-    default_sweep_text,
-    make_plan,
-)
+from ..core.presets import DEFAULT_PRESET
+from ..plan import MODES, SWEEP_PARAMETERS, Choices, RenderPlan, default_sweep_text, make_plan
+from ..run import Failure, Outcome
 from .compare import CompareView
 from .form import ParameterForm
 from .inputs import InputSection
@@ -107,7 +99,7 @@ class LabyrinthWidget(QWidget):
             if emitter is not None:
                 emitter.connect(self.reset_choices)
 
-        self.preset.value = presets.DEFAULT_PRESET
+        self.preset.value = DEFAULT_PRESET
         self._apply_preset(self.preset.value)
         active = self.viewer.layers.selection.active
         if isinstance(active, Image):

@@ -1,35 +1,47 @@
 """A run in a napari thread worker: progress bar, cancel, and the layer it adds.
 
-The worker runs :func:`napari_labyrinth.plan.render`, a generator: napari
-draws a determinate progress bar from its yields, and a cancel (the widget's
-button or napari's activity panel) stops it at the next plane or pass.
+The worker drives :func:`napari_labyrinth.run.render`, a generator: napari
+draws a determinate progress bar from its yields. A cancel (the widget's
+button, or napari's activity panel) stops the run at the next pass, and the
+run is closed at once, which stops the rendering threads behind it.
 """
 
 from __future__ import annotations
+
+from collections.abc import Generator
+from typing import Any
 
 from napari.layers import Image
 from napari.qt.threading import create_worker
 from napari.viewer import Viewer
 
-from ..plan import Outcome, RenderPlan, render, result_layer
+from ..plan import RenderPlan
+from ..run import Outcome, render, result_layer
 
 #: Title of a run's progress bar in napari's activity panel.
 PROGRESS_TITLE = "Labyrinthine tiling"
 
 
+def _steps_of(run: Generator[int, None, Any]) -> Generator[int, None, Any]:
+    """The steps of ``run``, as a generator function napari can drive."""
+    return (yield from run)
+
+
 def render_worker(plan: RenderPlan):
     """An unstarted napari worker that runs ``plan``, with a progress bar of its steps."""
+    run = render(plan)
     worker = create_worker(
-        render,
-        plan,
-        _progress={"total": plan.total_steps, "desc": PROGRESS_TITLE},
+        _steps_of, run, _progress={"total": plan.total_steps, "desc": PROGRESS_TITLE}
     )
     plan.abort_requested = lambda: worker.abort_requested
+    # An aborted napari worker stops driving its generator without closing it:
+    # closing the run here stops its rendering threads now, not when it is collected.
+    worker.aborted.connect(run.close)
     return worker
 
 
 def stop(worker, plan: RenderPlan) -> None:
-    """Ask the run to stop at its next plane or pass; it then returns nothing."""
+    """Ask the run to stop at its next pass; it then returns nothing."""
     plan.cancel.set()
     worker.quit()
 

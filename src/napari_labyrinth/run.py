@@ -1,0 +1,231 @@
+"""The widget's run: render a plan, yield progress, compute the metrics; no napari, no Qt.
+
+:func:`render` is a generator that drives
+:func:`~napari_labyrinth.labyrinth_steps`, yields after every pass of every
+plane (napari draws a determinate progress bar from its yields), computes the
+per-pass metrics of a stack, and returns an :class:`Outcome`, a
+:class:`Failure` with a message for the user, or None when cancelled. It
+reads only the plan, never the viewer, so it runs in a worker thread, or
+directly in a script or a test. Cancelling: ``plan.cancel`` (or napari's
+abort) stops it at the next pass, and closing it stops the API's threads at
+once. :func:`result_layer` turns the outcome into the data and keyword
+arguments of the result layer.
+
+Lazy (dask-backed) input layers: only the plane the viewer shows is loaded
+and rendered by the run; the other planes of the result stay lazy and are
+rendered by napari when the slider reaches them (:func:`splice_plane`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Generator
+from typing import Any
+
+import numpy as np
+
+from . import api, metrics
+from .plan import METADATA_KEY, METRIC_ROWS, RenderPlan
+
+__all__ = ["Cancelled", "Failure", "Outcome", "render", "result_layer", "splice_plane"]
+
+
+class Cancelled(Exception):
+    """Raised in the progress callback when the user cancelled."""
+
+
+@dataclasses.dataclass
+class Failure:
+    """A run that failed: the message for the user."""
+
+    message: str
+
+
+@dataclasses.dataclass
+class Outcome:
+    """What a finished run hands back to the main thread."""
+
+    data: Any
+    diagnostics: Any
+    metric_rows: list[dict[str, float]]
+    seconds: float
+
+
+def _api_steps(plan: RenderPlan, data: Any) -> Generator[int, None, tuple[Any, Any]]:
+    """Drive :func:`~napari_labyrinth.labyrinth_steps`; yield the count of plane-passes done.
+
+    Returns (as the generator's value) the result and its diagnostics. Stops
+    at the next pass once the plan asks to (raising :class:`Cancelled`); the
+    API's run is closed on the way out, whatever the way, so no thread of it
+    goes on after this generator ends or is closed.
+    """
+    if plan.should_stop():
+        raise Cancelled
+    steps = api.labyrinth_steps(data, plan.mode, **plan.arguments)
+    try:
+        for event in steps:
+            if isinstance(event, api.Result):
+                return event.image, event.diagnostics
+            if plan.should_stop():
+                raise Cancelled
+            yield event.done
+    finally:
+        steps.close()
+    raise AssertionError("labyrinth_steps ended without a result")  # pragma: no cover
+
+
+def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
+    """The run: render, yield after each plane and pass, compute the metrics.
+
+    Returns an :class:`Outcome`, a :class:`Failure` with a message for the
+    user, or None when cancelled (``plan.cancel`` set, or ``plan.abort_requested()``).
+    """
+    started = time.perf_counter()
+    try:
+        data = np.asarray(plan.data)  # for lazy input: loads one plane only
+        result, diagnostics = yield from _api_steps(plan, data)
+        metric_rows = []
+        if plan.mode == "stack":
+            metric_rows = yield from _stack_metrics(plan, data, result)
+        if plan.lazy_source is not None:
+            offset = 0 if plan.mode == "single" else 1
+            result = splice_plane(_lazy_result(plan), result, plan.visible_index, offset)
+        if plan.should_stop():
+            return None
+        yield plan.total_steps
+        return Outcome(result, diagnostics, metric_rows, time.perf_counter() - started)
+    except Cancelled:
+        return None
+    except (TypeError, ValueError) as exc:  # the API names the parameter at fault
+        return Failure(str(exc))
+    except MemoryError:
+        return Failure("not enough memory: render the current plane only, or a smaller image")
+    except Exception as exc:  # noqa: BLE001 - anything else still reaches the user as a message
+        return Failure(f"{type(exc).__name__}: {exc}")
+
+
+def _grey(plane: np.ndarray, rgb: bool) -> np.ndarray:
+    """A 2-D float plane for the metrics: colour planes averaged over R, G and B."""
+    plane = np.asarray(plane, dtype=np.float64)
+    return plane[..., :3].mean(axis=-1) if rgb else plane
+
+
+def _stack_metrics(
+    plan: RenderPlan, data: np.ndarray, stack: np.ndarray
+) -> Generator[int, None, list[dict[str, float]]]:
+    """Pattern and edge metrics of every pass on the visible plane."""
+    index = () if plan.source_index is not None else plan.visible_index
+    original = _grey(data[index], plan.rgb)
+    rows = []
+    previous = np.asarray(stack[(0,) + index])
+    for pass_number in range(1, stack.shape[0]):
+        if plan.should_stop():
+            raise Cancelled
+        rendered = np.asarray(stack[(pass_number,) + index])
+        try:
+            described = metrics.describe(original, _grey(rendered, plan.rgb))
+        except ValueError:  # e.g. a plane too small for the metrics' windows
+            described = {key: math.nan for key, _, function in METRIC_ROWS if function}
+        row = {"pass": pass_number, **described}
+        changed = rendered != previous
+        if plan.rgb:
+            changed = changed.any(axis=-1)
+        row["changed"] = 100.0 * float(changed.mean())
+        rows.append(row)
+        previous = rendered
+        yield pass_number
+    return rows
+
+
+def _as_dask(data: Any, n_leading: int):
+    """``data`` as a dask array with one chunk per plane."""
+    import dask.array as da
+
+    if isinstance(data, da.Array):
+        return data
+    chunks = (1,) * n_leading + tuple(data.shape[n_leading:])
+    return da.from_array(data, chunks=chunks)
+
+
+def _lazy_result(plan: RenderPlan):
+    """The whole result as a lazy dask array (the API renders dask input lazily)."""
+    import dask.array as da
+
+    source = _as_dask(plan.lazy_source, len(plan.visible_index))
+    arguments = {k: v for k, v in plan.arguments.items() if k != "plane_offset"}
+    (result,) = api.labyrinth_steps(source, plan.mode, **arguments)  # lazy: the result only
+    if not isinstance(result.image, da.Array):
+        raise TypeError("this version of napari_labyrinth.api does not render dask arrays lazily")
+    return result.image
+
+
+def splice_plane(lazy, rendered_plane: np.ndarray, index: tuple[int, ...], axis: int):
+    """``lazy`` with the plane at ``index`` (on the axes from ``axis``) replaced by an array.
+
+    The visible plane, rendered by the run, goes into the lazy result so
+    that napari shows it at once without rendering it again.
+    """
+    import dask.array as da
+
+    if not index:
+        block = np.asarray(rendered_plane).reshape(lazy.shape)
+        return da.from_array(block, chunks=block.shape)
+    position = index[0]
+
+    def take(part: slice):
+        return lazy[(slice(None),) * axis + (part,)]
+
+    parts = []
+    if position > 0:
+        parts.append(take(slice(0, position)))
+    parts.append(
+        splice_plane(take(slice(position, position + 1)), rendered_plane, index[1:], axis + 1)
+    )
+    if position + 1 < lazy.shape[axis]:
+        parts.append(take(slice(position + 1, None)))
+    return da.concatenate(parts, axis=axis) if len(parts) > 1 else parts[0]
+
+
+# -- the result layer --------------------------------------------------------------------------
+
+
+def diagnostics_record(diagnostics: np.ndarray | None) -> dict[str, Any] | None:
+    """JSON-friendly form of the API's structured diagnostics array."""
+    if diagnostics is None:
+        return None
+    return {
+        "shape": list(diagnostics.shape),
+        "counts": {name: diagnostics[name].tolist() for name in diagnostics.dtype.names},
+    }
+
+
+def result_layer(plan: RenderPlan, outcome: Outcome) -> tuple[Any, dict[str, Any]]:
+    """Data and keyword arguments of the layer that shows a finished run.
+
+    The metadata record gains the diagnostics (and which planes they count)
+    and the per-pass metrics. A single plane rendered alone gets size-1
+    leading axes that keep it at its place in the input.
+    """
+    kwargs = dict(plan.layer_kwargs)
+    record = dict(kwargs["metadata"][METADATA_KEY])
+    if plan.mode == "sweep":
+        record["diagnostics"] = [diagnostics_record(d) for d in outcome.diagnostics]
+    else:
+        record["diagnostics"] = diagnostics_record(outcome.diagnostics)
+    if plan.source_index is None:
+        record["diagnostics_scope"] = "all planes"
+    elif plan.lazy_source is not None:
+        record["diagnostics_scope"] = "the plane on screen (the others render lazily)"
+        record["diagnostics_plane"] = list(plan.visible_index)
+    else:
+        record["diagnostics_scope"] = "the rendered plane"
+    record["metrics"] = outcome.metric_rows
+    kwargs["metadata"] = {METADATA_KEY: record}
+    data = outcome.data
+    if record["source_index"] is not None:
+        n_extra = 0 if plan.mode == "single" else 1
+        index = record["source_index"]
+        data = data.reshape(data.shape[:n_extra] + (1,) * len(index) + data.shape[n_extra:])
+    return data, kwargs
