@@ -38,3 +38,17 @@ def reproduce(kwargs, source):
     if record["source_index"] is not None:
         source = source[tuple(record["source_index"])]
     return np.asarray(getattr(napari_labyrinth, record["function"])(source, **record["arguments"]))
+
+
+def counting_lazy(data: np.ndarray):
+    """``data`` as a dask array of one chunk per plane, and the list of the planes it loads."""
+    import dask.array as da
+
+    loaded: list[int] = []
+
+    def count(block, block_info=None):
+        loaded.append(block_info[0]["array-location"][0][0])
+        return block
+
+    chunks = (1,) + data.shape[1:]
+    return da.from_array(data, chunks=chunks).map_blocks(count, dtype=data.dtype), loaded

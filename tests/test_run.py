@@ -29,7 +29,7 @@ from napari_labyrinth.run import (
     splice_plane,
 )
 
-from .plan_helpers import drive, noise, reproduce
+from .plan_helpers import counting_lazy, drive, noise, reproduce
 
 # -- the module stays Qt-free ------------------------------------------------------------------
 
@@ -154,13 +154,7 @@ def test_a_seed_sweep_renders_with_each_seed():
 def test_a_lazy_run_loads_the_visible_plane_only(mode):
     da = pytest.importorskip("dask.array")
     data = noise((5, 16, 16))
-    loaded = []
-
-    def count(block, block_info=None):
-        loaded.append(block_info[0]["array-location"][0][0])
-        return block
-
-    lazy = da.from_array(data, chunks=(1, 16, 16)).map_blocks(count, dtype=data.dtype)
+    lazy, loaded = counting_lazy(data)
     snapshot = LayerSnapshot.of(lazy, visible_index=(3,))
     choices = Choices(mode=mode, overrides={"passes": 2}, sweep_text="0.03, 0.05")
     plan = make_plan(snapshot, choices)

@@ -19,6 +19,7 @@ from napari_labyrinth._qt.widget import LabyrinthWidget
 from napari_labyrinth.core import presets
 from napari_labyrinth.plan import CURRENT_PLANE, METADATA_KEY
 
+from ..plan_helpers import counting_lazy
 from .helpers import noise, reproduce, result_data, run
 
 # -- opening, choices, presets -----------------------------------------------------------------
@@ -225,13 +226,7 @@ def test_current_plane_equals_that_plane_of_the_whole_stack(
 def test_lazy_input_renders_the_visible_plane_and_keeps_the_rest_lazy(qtbot, viewer, widget, mode):
     da = pytest.importorskip("dask.array")
     data = noise((6, 32, 32))
-    loaded = []
-
-    def count(block, block_info=None):
-        loaded.append(block_info[0]["array-location"][0][0])
-        return block
-
-    lazy = da.from_array(data, chunks=(1, 32, 32)).map_blocks(count, dtype=data.dtype)
+    lazy, loaded = counting_lazy(data)
     viewer.add_image(lazy, name="lazy", contrast_limits=(0, 255))
     viewer.dims.set_current_step(0, 4)
     loaded.clear()
