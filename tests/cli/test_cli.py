@@ -384,6 +384,9 @@ def test_bad_file_in_a_batch(tmp_path, capsys):
         ["--set", "colour=blue"],
         ["--set", "passes=2", "--passes", "3"],
         ["--set", "passes=2.5"],
+        ["--set", "tones=1,2"],
+        ["--passes", "5000"],
+        ["--include-centre", "maybe"],
     ],
 )
 def test_bad_parameter_is_one_line_without_traceback(tmp_path, capsys, bad):

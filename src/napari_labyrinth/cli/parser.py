@@ -279,7 +279,7 @@ def _parameter_values(args: argparse.Namespace) -> dict[str, Any]:
     for name, text in given:
         if name in values:
             raise UsageError(f"{name} is given twice")
-        values[name] = SWEEPABLE[name].parse(text)
+        values[name] = (PARAMETERS.get(name) or SWEEPABLE[name]).parse(text)
     return values
 
 

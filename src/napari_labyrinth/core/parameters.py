@@ -149,7 +149,10 @@ class Parameter:
         """
         text = text.strip()
         if self.kind == "tones":
-            raise ValueError(f"{self.name} cannot be given as text")
+            raise ValueError(
+                f"{self.name} cannot be given as text: set tone_ranges (its tones follow), "
+                "or pass tones to the Python API"
+            )
         try:
             if self.kind in ("int", "seed") or (self.kind == "tone_ranges" and "," not in text):
                 value: Any = int(text)
