@@ -441,3 +441,17 @@ def test_a_plane_rendered_alone_moves_by_the_data_to_physical_image_of_its_index
     sheared = LayerSnapshot.of(noise((2, 3, 8, 8)), shear=(0.5, 0, 0, 0, 0, 0))
     kwargs = result_layer_kwargs(sheared, "out", "pass", (1, 2))
     np.testing.assert_allclose(kwargs["translate"], (0.0, 2.0, 2.0, 0.0, 0.0))
+
+
+def test_a_sweep_of_an_edited_field_replaces_the_field_s_value():
+    snapshot = LayerSnapshot.of(noise((16, 16)))
+    edits = {"variance_threshold": 0.07, "passes": 1}
+    choices = Choices(mode="sweep", overrides=edits, sweep_text="0.03, 0.05")
+    plan = make_plan(snapshot, choices)
+    assert "variance_threshold" not in plan.arguments
+    assert plan.arguments["values"] == [0.03, 0.05] and plan.arguments["passes"] == 1
+    _, outcome = drive(plan)
+    np.testing.assert_array_equal(
+        outcome.data[1],
+        api.labyrinth(snapshot.data, passes=1, variance_threshold=0.05, tone_limits=(0, 255)),
+    )

@@ -460,15 +460,14 @@ def _finish(
     """Drive :func:`labyrinth_steps` to its result, reporting to a ``progress`` callback."""
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be callable, got {progress!r}")
-    steps = labyrinth_steps(image, mode, **options)
-    if is_lazy(image):
+    if is_lazy(image):  # refused before a graph is built or tone limits are streamed
         if return_diagnostics:
             raise ValueError("return_diagnostics is not available for dask arrays (lazy results)")
         if progress is not None:
             raise ValueError(
                 "progress is not available for dask arrays: use dask.diagnostics.ProgressBar"
             )
-    for event in steps:
+    for event in labyrinth_steps(image, mode, **options):
         if isinstance(event, Result):
             return event
         if progress is not None:

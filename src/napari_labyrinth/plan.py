@@ -594,7 +594,8 @@ def _sweep(
 ) -> tuple[str, list[Any]]:
     """The swept parameter and its values, each checked now rather than in the run."""
     values = parse_sweep_values(parameter, text)
-    resolve_sweep(preset, edits, 0, parameter, values)
+    others = {name: value for name, value in edits.items() if name != parameter}
+    resolve_sweep(preset, others, 0, parameter, values)  # the swept field's value is replaced
     return parameter, list(values)
 
 
