@@ -51,14 +51,12 @@ def test_plan_and_a_run_import_neither_napari_nor_qt():
     assert result.stdout.strip() == "[]"
 
 
-
 def test_diagnostics_record_is_plain_json():
     counts = np.array([(1, 3), (2, 4)], dtype=[("redrawn", np.int64), ("kept", np.int64)])
     record = diagnostics_record(counts)
     assert record == {"shape": [2], "counts": {"redrawn": [1, 2], "kept": [3, 4]}}
     assert json.loads(json.dumps(record)) == record
     assert diagnostics_record(None) is None
-
 
 
 # -- the run -----------------------------------------------------------------------------------
