@@ -113,3 +113,14 @@ def test_dask_input_yields_only_the_lazy_result(camera):
     events = list(labyrinth_steps(da.from_array(np.stack([camera, camera]))))
     assert len(events) == 1 and isinstance(events[0], Result)
     assert isinstance(events[0].image, da.Array) and events[0].diagnostics is None
+
+
+def test_a_stack_s_partial_result_holds_each_pass_as_soon_as_it_is_reported(camera):
+    stack = np.stack([camera, camera.T])
+    want = labyrinth_stack(stack, passes=3, workers=1)
+    events = list(labyrinth_steps(stack, "stack", passes=3, workers=2))
+    for event in events[:-1]:
+        np.testing.assert_array_equal(
+            event.partial[event.pass_number, event.plane], want[event.pass_number, event.plane]
+        )
+    assert "partial" not in repr(events[0])  # events print short

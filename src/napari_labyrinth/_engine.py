@@ -48,6 +48,11 @@ class Progress:
         Flat index of the plane among the image's planes (colour axis last).
     pass_number : int
         Passes done on that plane, from 1.
+    partial : ndarray or None
+        The array this rendering fills, as :func:`render` returns it: with
+        ``record_passes`` (stack mode) the plane after this pass is already in
+        it, at index ``pass_number``; otherwise a plane lands in it after its
+        last pass. Read it, never write to it.
     """
 
     done: int
@@ -55,6 +60,7 @@ class Progress:
     run: int
     plane: int
     pass_number: int
+    partial: Any = dataclasses.field(default=None, repr=False, compare=False)
 
 
 def render(
@@ -66,8 +72,8 @@ def render(
     *,
     record_passes: bool,
     workers: int = 1,
-) -> Generator[tuple[int, int], None, tuple[np.ndarray, np.ndarray]]:
-    """Render every plane of ``image``; yield ``(plane, pass_number)`` after each pass.
+) -> Generator[tuple[int, int, np.ndarray], None, tuple[np.ndarray, np.ndarray]]:
+    """Render every plane of ``image``; yield ``(plane, pass_number, result)`` after each pass.
 
     With several planes and ``workers > 1`` planes run concurrently on
     threads (the kernel holds no GIL); a single plane gives its workers to
@@ -112,9 +118,12 @@ def render(
     if plane_workers == 1:
         for index in planes:
             for pass_number in passes_of(index):
-                yield flat[index], pass_number
+                yield flat[index], pass_number, result
     else:
-        yield from _on_threads(planes, passes, passes_of, flat, plane_workers, stop)
+        for plane, pass_number in _on_threads(
+            planes, passes, passes_of, flat, plane_workers, stop
+        ):
+            yield plane, pass_number, result
     diagnostics = layout.to_image_layout(counts.view(DIAGNOSTICS_DTYPE)[..., 0])
     return result, np.ascontiguousarray(diagnostics)
 

@@ -442,12 +442,12 @@ def _steps(
         )
         while True:
             try:
-                plane, pass_number = next(rendering)
+                plane, pass_number, partial = next(rendering)
             except StopIteration as finished:
                 results.append(finished.value)
                 break
             done += 1
-            yield Progress(done, total, run, plane, pass_number)
+            yield Progress(done, total, run, plane, pass_number, partial)
     if mode == "sweep":
         yield Result(_stack([image for image, _ in results]), [d for _, d in results])
     else:
