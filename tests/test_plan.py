@@ -31,9 +31,12 @@ from napari_labyrinth.plan import (
     parse_sweep_values,
     plane_label,
     preset_field_values,
+    preview_choices,
+    result_description,
     result_layer_kwargs,
     result_name,
     run_steps,
+    sweep_label,
     tone_limit_text,
     tone_limits,
     visible_plane,
@@ -120,22 +123,22 @@ def test_tone_limits_follow_the_contrast_limits_or_the_typed_values():
 
 
 def test_result_name_lists_the_key_parameters():
-    assert result_name("cell", "single", 4, "labyrinth", {}, 0) == (
+    assert result_description("cell", "single", 4, "labyrinth", {}, 0) == (
         "cell · labyrinth · 4 passes · preset labyrinth"
     )
-    name = result_name("cell", "stack", 1, "paper", {"variance_threshold": 0.47}, 3)
+    name = result_description("cell", "stack", 1, "paper", {"variance_threshold": 0.47}, 3)
     assert name == "cell · stack · 1 pass · preset paper · V=0.47 · seed 3"
 
 
 def test_result_name_of_sweeps_edits_and_planes():
     values = [0.03, 0.04, 0.05, 0.06, 0.07]
-    assert result_name("cell", "sweep", 4, "labyrinth", {}, 0, ("variance_threshold", values)) == (
-        "cell · sweep variance_threshold 0.03, 0.04, 0.05, 0.06 … · 4 passes · preset labyrinth"
-    )
-    assert result_name("cell", "sweep", 4, "paper", {}, 0, ("passes", [1, 2])) == (
+    assert result_description(
+        "cell", "sweep", 4, "labyrinth", {}, 0, ("variance_threshold", values)
+    ) == ("cell · sweep variance_threshold 0.03, 0.04, 0.05, 0.06 … · 4 passes · preset labyrinth")
+    assert result_description("cell", "sweep", 4, "paper", {}, 0, ("passes", [1, 2])) == (
         "cell · sweep passes 1, 2 · preset paper"
     )
-    assert result_name("cell", "sweep", 1, "paper", {}, 5, ("seed", [0, 1])) == (
+    assert result_description("cell", "sweep", 1, "paper", {}, 5, ("seed", [0, 1])) == (
         "cell · sweep seed 0, 1 · 1 pass · preset paper"
     )
     edits = {
@@ -145,7 +148,7 @@ def test_result_name_of_sweeps_edits_and_planes():
         "border": "wrap",
         "scan": "serpentine",
     }
-    assert result_name("cell", "single", 3, "paper", edits, 0, plane_label="t=2") == (
+    assert result_description("cell", "single", 3, "paper", edits, 0, plane_label="t=2") == (
         "cell · labyrinth · 3 passes · preset paper · t=0.2, include_centre=true, border=wrap … "
         "· t=2"
     )
@@ -250,7 +253,8 @@ def test_a_single_run_of_a_stack_renders_every_plane():
     assert plan.function == "labyrinth" and plan.mode == "single"
     assert plan.data is data and plan.source_index is None and plan.lazy_source is None
     assert plan.total_steps == 3 * 2 + 1
-    assert plan.name == "cell · labyrinth · 2 passes · preset labyrinth"
+    assert plan.name == "cell · labyrinth"
+    assert plan.description == "cell · labyrinth · 2 passes · preset labyrinth"
     expected = dict(
         api.resolve_parameters("labyrinth", passes=2).as_dict(),
         preset="labyrinth",
@@ -262,6 +266,7 @@ def test_a_single_run_of_a_stack_renders_every_plane():
     record = plan.layer_kwargs["metadata"][METADATA_KEY]
     assert record == {
         "version": napari_labyrinth.__version__,
+        "description": "cell · labyrinth · 2 passes · preset labyrinth",
         "mode": "single",
         "function": "labyrinth",
         "arguments": dict(expected, tone_limits=[0.0, 255.0]),
@@ -348,7 +353,7 @@ def test_the_current_plane_is_rendered_alone_at_its_place():
     np.testing.assert_array_equal(plan.data, data[2])
     assert plan.arguments["plane_offset"] == 2
     assert plan.total_steps == 1 * 4 + 1  # one plane, the preset's 4 passes
-    assert plan.name.endswith(" · axis 0=2")
+    assert plan.name.endswith(" · axis 0=2") and plan.description.endswith(" · axis 0=2")
     np.testing.assert_allclose(plan.layer_kwargs["translate"], (3.0 + 2 * 10.0, 0.0, 0.0))
     record = plan.layer_kwargs["metadata"][METADATA_KEY]
     assert record["source_index"] == [2] and record["arguments"]["plane_offset"] == 2
@@ -455,3 +460,28 @@ def test_a_sweep_of_an_edited_field_replaces_the_field_s_value():
         outcome.data[1],
         api.labyrinth(snapshot.data, passes=1, variance_threshold=0.05, tone_limits=(0, 255)),
     )
+
+
+def test_result_names_are_short_and_sweep_labels_name_the_value():
+    assert result_name("cell", "single") == "cell · labyrinth"
+    assert result_name("cell", "stack", plane_label="t=3") == "cell · stack · t=3"
+    assert result_name("cell", "sweep", "variance_threshold") == "cell · sweep V"
+    assert result_name("cell", "sweep", "border") == "cell · sweep border"
+    record = {"sweep": {"parameter": "variance_threshold", "values": [0.03, 0.04, 0.05]}}
+    assert [sweep_label(record, step) for step in (0, 2, 9)] == [
+        "V = 0.03",
+        "V = 0.05",
+        "V = 0.05",
+    ]
+    assert (
+        sweep_label({"sweep": {"parameter": "scan", "values": ["raster"]}}, 0) == "scan = raster"
+    )
+    assert sweep_label({"sweep": None}, 0) == ""
+
+
+def test_a_preview_renders_the_plane_on_screen_once_without_metrics():
+    snapshot = LayerSnapshot.of(noise((3, 16, 16)), name="movie", visible_index=(2,))
+    choices = Choices(mode="stack", sweep_text="0.03", overrides={"passes": 2})
+    plan = make_plan(snapshot, preview_choices(choices))
+    assert plan.mode == "single" and plan.source_index == (2,) and not plan.metrics
+    assert plan.arguments["plane_offset"] == 2 and plan.total_steps == 2 + 1

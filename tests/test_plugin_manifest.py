@@ -49,7 +49,7 @@ def test_the_widget_is_offered_in_the_plugins_and_filter_menus(manifest):
     assert commands[widget.command].python_name == "napari_labyrinth._qt.widget:LabyrinthWidget"
     filter_menu = manifest.contributions.menus["napari/layers/filter"]
     assert [item.command for item in filter_menu] == [
-        "napari-labyrinth.open_widget",
+        "napari-labyrinth.show_widget",  # the docked widget if there is one, never a second
         "napari-labyrinth.render_selected_layer",
         "napari-labyrinth.stack_selected_layer",
     ]

@@ -141,7 +141,8 @@ def test_a_seed_sweep_renders_with_each_seed():
     plan = make_plan(LayerSnapshot.of(data), choices)
     assert "seed" not in plan.arguments
     assert plan.layer_kwargs["metadata"][METADATA_KEY]["seed"] == 9
-    assert plan.name == "image · sweep seed 1, 2 · 4 passes · preset labyrinth"
+    assert plan.name == "image · sweep seed"
+    assert plan.description == "image · sweep seed 1, 2 · 4 passes · preset labyrinth"
     _, outcome = drive(plan)
     layer_data, kwargs = result_layer(plan, outcome)
     np.testing.assert_array_equal(layer_data[1], api.labyrinth(data, seed=2))

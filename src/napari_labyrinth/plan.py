@@ -44,7 +44,10 @@ __all__ = [
     "default_sweep_text",
     "make_plan",
     "parse_sweep_values",
+    "preview_choices",
+    "result_description",
     "result_name",
+    "sweep_label",
 ]
 
 #: Key of the result layers' ``metadata`` under which a run is recorded.
@@ -197,6 +200,8 @@ class Choices:
         One of ``SWEEP_PARAMETERS`` (sweep mode).
     sweep_text : str
         Its values as typed, e.g. ``"0.47, 0.50, 0.53"`` (sweep mode).
+    metrics : bool
+        Measure every pass of a stack on the plane on screen (stack mode).
     """
 
     mode: str = "single"
@@ -207,6 +212,7 @@ class Choices:
     planes: str = ALL_PLANES
     sweep_parameter: str = "variance_threshold"
     sweep_text: str = ""
+    metrics: bool = True
 
 
 # -- text in, text out -------------------------------------------------------------------------
@@ -297,7 +303,7 @@ def _plural(count: int, word: str) -> str:
     return f"{count} {word}" + ("" if count == 1 else "es" if word.endswith("s") else "s")
 
 
-def result_name(
+def result_description(
     source: str,
     mode: str,
     passes: int,
@@ -307,11 +313,14 @@ def result_name(
     sweep: tuple[str, Sequence[Any]] | None = None,
     plane_label: str = "",
 ) -> str:
-    """Name of a result layer: the input, the mode and the key parameters.
+    """What a result holds, in one line: the input, the mode and the key parameters.
+
+    The result layer's metadata and the widget's status line carry it; the
+    layer's name is the short :func:`result_name`.
 
     Examples
     --------
-    >>> result_name("cell", "single", 4, "labyrinth", {}, 0)
+    >>> result_description("cell", "single", 4, "labyrinth", {}, 0)
     'cell · labyrinth · 4 passes · preset labyrinth'
     """
     if mode == "sweep" and sweep is not None:
@@ -335,6 +344,40 @@ def result_name(
     if plane_label:
         parts.append(plane_label)
     return " · ".join(parts)
+
+
+def result_name(source: str, mode: str, sweep_parameter: str = "", plane_label: str = "") -> str:
+    """Short name of a result layer, readable in the layer list.
+
+    Examples
+    --------
+    >>> result_name("cell", "sweep", "variance_threshold")
+    'cell · sweep V'
+    >>> result_name("movie", "single", plane_label="t=2")
+    'movie · labyrinth · t=2'
+    """
+    what = {"single": "labyrinth", "stack": "stack", "preview": "preview"}.get(mode)
+    if mode == "sweep":
+        symbol = PARAMETERS[sweep_parameter].symbol if sweep_parameter in PARAMETERS else None
+        what = f"sweep {symbol or sweep_parameter}"
+    return " · ".join(part for part in (source, what, plane_label) if part)
+
+
+def sweep_label(record: Mapping[str, Any], step: int) -> str:
+    """What the plane ``step`` of a sweep result shows: ``"V = 0.04"`` (for a text overlay)."""
+    sweep = record.get("sweep") or {}
+    values = sweep.get("values") or []
+    if not values:
+        return ""
+    parameter = sweep["parameter"]
+    value = values[min(max(int(step), 0), len(values) - 1)]
+    symbol = PARAMETERS[parameter].symbol if parameter in PARAMETERS else None
+    return f"{symbol or parameter} = {format_value(value)}"
+
+
+def preview_choices(choices: Choices) -> Choices:
+    """The choices of a preview: one rendering of the plane on screen, no metrics."""
+    return dataclasses.replace(choices, mode="single", planes=CURRENT_PLANE, metrics=False)
 
 
 def plane_label(axis_labels: Sequence[str], index: tuple[int, ...]) -> str:
@@ -468,6 +511,8 @@ class RenderPlan:
         Whether the data holds colour channels on its last axis.
     total_steps : int
         Number of yields of the run (the progress bar's total).
+    metrics : bool
+        Whether a stack run measures every pass on the plane on screen.
     layer_kwargs : dict
         Keyword arguments of the result layer (name, transforms, contrast, metadata).
     """
@@ -482,6 +527,7 @@ class RenderPlan:
     rgb: bool
     total_steps: int
     layer_kwargs: dict[str, Any]
+    metrics: bool = False
     cancel: threading.Event = dataclasses.field(default_factory=threading.Event)
     abort_requested: Callable[[], bool] = lambda: False
 
@@ -489,6 +535,16 @@ class RenderPlan:
     def name(self) -> str:
         """Name of the result layer."""
         return self.layer_kwargs["name"]
+
+    @property
+    def description(self) -> str:
+        """What the result holds, in one line (its metadata record's ``description``)."""
+        return self.layer_kwargs["metadata"][METADATA_KEY]["description"]
+
+    @property
+    def source(self) -> str:
+        """Name of the input layer."""
+        return self.layer_kwargs["metadata"][METADATA_KEY]["source_layer"]
 
     def should_stop(self) -> bool:
         """Whether the user (or napari's activity panel) asked the run to stop."""
@@ -532,14 +588,18 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     passes_per_run = [resolved.passes]
     if sweep:  # one run per value
         passes_per_run = sweep[1] if sweep[0] == "passes" else passes_per_run * len(sweep[1])
-    stack_passes = resolved.passes if mode == "stack" else 0
+    stack_passes = resolved.passes if mode == "stack" and choices.metrics else 0
     rendered_shape = source.shape[0 if source_index is None else len(source_index) :]
     total = run_steps(rendered_shape, snapshot.rgb, passes_per_run, stack_passes)
 
     label = plane_label(snapshot.axis_labels, visible_index) if partial else ""
-    name = result_name(snapshot.name, mode, resolved.passes, preset, edits, seed, sweep, label)
+    name = result_name(snapshot.name, mode, sweep[0] if sweep else "", label)
+    description = result_description(
+        snapshot.name, mode, resolved.passes, preset, edits, seed, sweep, label
+    )
     record = {
         "version": __version__,
+        "description": description,
         "mode": mode,
         "function": FUNCTIONS[mode],
         "arguments": {k: (list(v) if isinstance(v, tuple) else v) for k, v in arguments.items()},
@@ -572,6 +632,7 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
         lazy_source=source if lazy else None,
         rgb=bool(snapshot.rgb),
         total_steps=total,
+        metrics=mode == "stack" and choices.metrics,
         layer_kwargs=layer_kwargs,
     )
 

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from . import api, metrics
+from .core.planes import PlaneLayout, first_plane_index
 from .plan import METADATA_KEY, METRIC_ROWS, RenderPlan
 
 __all__ = ["Cancelled", "Failure", "Outcome", "render", "result_layer", "splice_plane"]
@@ -53,31 +54,41 @@ class Outcome:
     seconds: float
 
 
-def _api_steps(plan: RenderPlan, data: Any) -> Generator[int, None, tuple[Any, Any]]:
-    """Drive :func:`~napari_labyrinth.labyrinth_steps`; yield the count of plane-passes done.
+def _api_steps(
+    plan: RenderPlan, data: Any, measure: PassMetrics | None = None
+) -> Generator[int, None, tuple[Any, Any]]:
+    """Drive :func:`~napari_labyrinth.labyrinth_steps`; yield after every pass of every plane.
 
-    Returns (as the generator's value) the result and its diagnostics. Stops
-    at the next pass once the plan asks to (raising :class:`Cancelled`); the
-    API's run is closed on the way out, whatever the way, so no thread of it
-    goes on after this generator ends or is closed.
+    With ``measure``, the passes of the plane on screen are measured as they
+    render (one more yield per pass). Returns (as the generator's value) the
+    result and its diagnostics. Stops at the next pass, or between two
+    metrics, once the plan asks to (raising :class:`Cancelled`); the API's
+    run is closed on the way out, whatever the way, so no thread of it goes
+    on after this generator ends or is closed.
     """
     if plan.should_stop():
         raise Cancelled
     steps = api.labyrinth_steps(data, plan.mode, **plan.arguments)
+    done = 0
     try:
         for event in steps:
             if isinstance(event, api.Result):
                 return event.image, event.diagnostics
             if plan.should_stop():
                 raise Cancelled
-            yield event.done
+            done += 1
+            yield done
+            if measure is not None and measure.ready(event):
+                measure.measure(event.partial, event.pass_number, plan.should_stop)
+                done += 1
+                yield done
     finally:
         steps.close()
     raise AssertionError("labyrinth_steps ended without a result")  # pragma: no cover
 
 
 def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
-    """The run: render, yield after each plane and pass, compute the metrics.
+    """The run: render, measure the passes of a stack, yield after each step.
 
     Returns an :class:`Outcome`, a :class:`Failure` with a message for the
     user, or None when cancelled (``plan.cancel`` set, or ``plan.abort_requested()``).
@@ -85,17 +96,16 @@ def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
     started = time.perf_counter()
     try:
         data = np.asarray(plan.data)  # for lazy input: loads one plane only
-        result, diagnostics = yield from _api_steps(plan, data)
-        metric_rows = []
-        if plan.mode == "stack":
-            metric_rows = yield from _stack_metrics(plan, data, result)
+        measure = PassMetrics(plan, data) if plan.metrics else None
+        result, diagnostics = yield from _api_steps(plan, data, measure)
         if plan.lazy_source is not None:
             offset = 0 if plan.mode == "single" else 1
             result = splice_plane(_lazy_result(plan), result, plan.visible_index, offset)
         if plan.should_stop():
             return None
         yield plan.total_steps
-        return Outcome(result, diagnostics, metric_rows, time.perf_counter() - started)
+        rows = measure.rows if measure is not None else []
+        return Outcome(result, diagnostics, rows, time.perf_counter() - started)
     except Cancelled:
         return None
     except (TypeError, ValueError) as exc:  # the API names the parameter at fault
@@ -108,35 +118,62 @@ def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
 
 def _grey(plane: np.ndarray, rgb: bool) -> np.ndarray:
     """A 2-D float plane for the metrics: colour planes averaged over R, G and B."""
-    plane = np.asarray(plane, dtype=np.float64)
+    plane = np.asarray(plane, dtype=np.float32)
     return plane[..., :3].mean(axis=-1) if rgb else plane
 
 
-def _stack_metrics(
-    plan: RenderPlan, data: np.ndarray, stack: np.ndarray
-) -> Generator[int, None, list[dict[str, float]]]:
-    """Pattern and edge metrics of every pass on the visible plane."""
-    index = () if plan.source_index is not None else plan.visible_index
-    original = _grey(data[index], plan.rgb)
-    rows = []
-    previous = np.asarray(stack[(0,) + index])
-    for pass_number in range(1, stack.shape[0]):
-        if plan.should_stop():
-            raise Cancelled
-        rendered = np.asarray(stack[(pass_number,) + index])
+class PassMetrics:
+    """Pattern and edge metrics of every pass of a stack, on the plane on screen.
+
+    A pass is measured as soon as every plane at the position on screen (one,
+    or one per colour channel) has reported it; the original's own maps are
+    computed once for all passes.
+    """
+
+    def __init__(self, plan: RenderPlan, data: np.ndarray) -> None:
+        self.rgb = plan.rgb
+        self.index = () if plan.source_index is not None else tuple(plan.visible_index)
+        self.comparison = metrics.Comparison(_grey(data[self.index], self.rgb))
+        self.planes = visible_planes(data.shape, self.index, self.rgb)
+        self.waiting: dict[int, set[int]] = {}
+        self.previous = np.asarray(data[self.index])
+        self.rows: list[dict[str, float]] = []
+
+    def ready(self, event: api.Progress) -> bool:
+        """Whether ``event`` completes a pass at the position on screen."""
+        if event.plane not in self.planes:
+            return False
+        waiting = self.waiting.setdefault(event.pass_number, set(self.planes))
+        waiting.discard(event.plane)
+        return not waiting
+
+    def measure(self, stack: np.ndarray, pass_number: int, should_stop) -> None:
+        """Measure pass ``pass_number`` of ``stack``; raise :class:`Cancelled` between metrics."""
+        rendered = np.asarray(stack[(pass_number,) + self.index])
+        row: dict[str, float] = {"pass": pass_number}
         try:
-            described = metrics.describe(original, _grey(rendered, plan.rgb))
+            for name, value in self.comparison.describe_steps(_grey(rendered, self.rgb)):
+                if should_stop():
+                    raise Cancelled
+                row[name] = value
         except ValueError:  # e.g. a plane too small for the metrics' windows
-            described = {key: math.nan for key, _, function in METRIC_ROWS if function}
-        row = {"pass": pass_number, **described}
-        changed = rendered != previous
-        if plan.rgb:
-            changed = changed.any(axis=-1)
-        row["changed"] = 100.0 * float(changed.mean())
-        rows.append(row)
-        previous = rendered
-        yield pass_number
-    return rows
+            row.update({key: math.nan for key, _, function in METRIC_ROWS if function})
+        changed = rendered != self.previous
+        row["changed"] = 100.0 * float((changed.any(axis=-1) if self.rgb else changed).mean())
+        self.rows.append(row)
+        self.previous = rendered
+
+
+def visible_planes(shape: tuple[int, ...], index: tuple[int, ...], rgb: bool) -> set[int]:
+    """Flat indices (the API's plane order) of the planes rendered at ``index`` of the data."""
+    layout = PlaneLayout(tuple(shape), -1 % len(shape) if rgb else None)
+    first = first_plane_index(shape, index, -1 if rgb else None)
+    per_position = layout.n_planes // max(1, math.prod(layout.leading_shape[: len(index)]))
+    return {
+        first + k
+        for k in range(per_position)
+        if not layout.is_alpha(np.unravel_index(first + k, layout.leading_shape))
+    }
 
 
 def _as_dask(data: Any, n_leading: int):

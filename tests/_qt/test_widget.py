@@ -91,7 +91,8 @@ def test_single_mode_adds_a_layer_that_the_api_reproduces(
     result = viewer.layers[-1]
     assert result == widget.last_result  # napari hands plugins proxies: == not `is`
     assert result != source
-    assert result.name.startswith("cell · labyrinth · 2 passes")
+    assert result.name == "cell · labyrinth"  # short; the description is in the metadata
+    assert result.metadata[METADATA_KEY]["description"].startswith("cell · labyrinth · 2 passes")
     assert result.data.shape == data.shape and result.data.dtype == data.dtype
     assert result.rgb == rgb
     np.testing.assert_array_equal(result.data, reproduce(result, data))
@@ -124,7 +125,8 @@ def test_stack_mode_holds_the_input_and_every_pass_with_metrics(qtbot, viewer, w
     run(qtbot, widget)
 
     result = viewer.layers[-1]
-    assert result.name.startswith("cell · stack · 3 passes")
+    assert result.name == "cell · stack"
+    assert result.metadata[METADATA_KEY]["description"].startswith("cell · stack · 3 passes")
     assert result.data.shape == (4, 64, 64)
     np.testing.assert_array_equal(result.data[0], data)
     np.testing.assert_array_equal(result.data, reproduce(result, data))
@@ -156,7 +158,9 @@ def test_sweep_mode_renders_one_plane_per_value(qtbot, viewer, widget):
 
     result = viewer.layers[-1]
     assert result.data.shape == (3, 48, 48)
-    assert result.name.startswith("cell · sweep variance_threshold 0.05, 0.08, 0.11")
+    assert result.name == "cell · sweep V"
+    description = result.metadata[METADATA_KEY]["description"]
+    assert description.startswith("cell · sweep variance_threshold 0.05, 0.08, 0.11")
     assert result.axis_labels[0] == "variance_threshold"
     record = result.metadata[METADATA_KEY]
     assert record["arguments"]["tone_limits"] == [1000.0, 60000.0]
@@ -175,7 +179,8 @@ def test_a_seed_sweep_renders_one_plane_per_seed(qtbot, viewer, widget):
     run(qtbot, widget)
 
     result = viewer.layers[-1]
-    assert result.name.startswith("cell · sweep seed 0, 1, 2")
+    assert result.name == "cell · sweep seed"
+    assert result.metadata[METADATA_KEY]["description"].startswith("cell · sweep seed 0, 1, 2")
     np.testing.assert_array_equal(result.data, reproduce(result, data))
     np.testing.assert_array_equal(result.data[2], api.labyrinth(data, seed=2))
 

@@ -32,6 +32,12 @@ class MetricsTable(QTableWidget):
         self.title.setVisible(False)
         self.setVisible(False)
 
+    def clear_passes(self) -> None:
+        """Empty and hide the table (another mode, input or plane is on screen)."""
+        self.setColumnCount(0)
+        self.title.setVisible(False)
+        self.setVisible(False)
+
     def show_passes(self, passes: Sequence[Mapping[str, float]]) -> None:
         """Fill the table from the metric rows of a run (one dict per pass) and show it."""
         headers, cells = metric_cells(passes)

@@ -11,14 +11,23 @@ call so that it can be reproduced exactly.
 
 from __future__ import annotations
 
+import weakref
 from typing import Any
 
-from magicgui.widgets import ComboBox, Container, Label, LineEdit, PushButton, RadioButtons
+from magicgui.widgets import (
+    CheckBox,
+    ComboBox,
+    Container,
+    Label,
+    LineEdit,
+    PushButton,
+    RadioButtons,
+)
 from napari.layers import Image
 from napari.utils.notifications import show_error, show_info
 from napari.viewer import Viewer
-from qtpy.QtCore import Qt
-from qtpy.QtWidgets import QScrollArea, QVBoxLayout, QWidget
+from qtpy.QtCore import QEvent, Qt
+from qtpy.QtWidgets import QProgressBar, QScrollArea, QVBoxLayout, QWidget
 from superqt import QCollapsible
 
 from ..core.presets import DEFAULT_PRESET
@@ -27,13 +36,19 @@ from ..run import Failure, Outcome
 from .compare import CompareView
 from .form import ParameterForm
 from .inputs import InputSection
+from .metrics_plot import MetricsPlot
 from .metrics_table import MetricsTable
+from .preview import Preview
+from .sweep_label import SweepLabel
 from .worker import add_result_layer, render_worker, stop
 
 __all__ = ["LabyrinthWidget"]
 
 
 class LabyrinthWidget(QWidget):
+    #: Every widget alive: the Layers ▸ Filter commands find a viewer's widget here.
+    instances: weakref.WeakSet[LabyrinthWidget] = weakref.WeakSet()
+
     """Dock widget that renders an image layer with the labyrinthine tiling.
 
     Parameters
@@ -63,7 +78,16 @@ class LabyrinthWidget(QWidget):
     run_button, cancel_button, compare_button : magicgui.widgets.PushButton
     status : magicgui.widgets.Label
     metrics_table : QTableWidget
-        Per-pass metrics of the last stack run.
+        Per-pass metrics of the last stack run (cleared when the mode, the
+        input or its plane on screen changes).
+    metrics_plot : QWidget
+        The same run's edge enhancement and labyrinth cover against the pass.
+    measure, replace, preview_toggle : magicgui.widgets.CheckBox
+        Measure the passes of a stack; replace the previous result of the
+        same input and mode; live preview of the plane on screen.
+    progress_bar : QProgressBar
+        The running run's steps.
+    preview : Preview
     worker : napari worker or None
         The running worker, if any.
     last_result : napari.layers.Image or None
@@ -72,6 +96,7 @@ class LabyrinthWidget(QWidget):
 
     def __init__(self, napari_viewer: Viewer) -> None:
         super().__init__()
+        self._watched_window = 0  # id of the window whose Close is watched (no reference kept)
         self.viewer = napari_viewer
         self.worker = None
         self.last_result: Image | None = None
@@ -91,6 +116,7 @@ class LabyrinthWidget(QWidget):
         self._build_mode_section()
         self.metrics_table = MetricsTable()
         self.metrics_title = self.metrics_table.title
+        self.metrics_plot = MetricsPlot()
         self._build_layout()
 
         layer_events = self.viewer.layers.events
@@ -106,6 +132,23 @@ class LabyrinthWidget(QWidget):
             self.image_layer.value = active
         self.inputs.follow_layer()
         self._on_mode_changed()
+
+        self._results: dict[tuple[str, str], Image] = {}
+        self._input: Image | None = None
+        self._cancel_reason = ""
+        self._shown_plane: tuple[int, ...] | None = None
+        self._closed = False
+        self.sweep_label = SweepLabel(self.viewer)
+        self.preview = Preview(self.viewer, self.inputs.snapshot, self.choices, self._say, self)
+        self.preview_toggle.changed.connect(self._on_preview_toggled)
+        for widget in (*self.fields.values(), self.seed, self.preset, self.image_layer):
+            widget.changed.connect(self.preview.request)
+        for widget in (self.follow_contrast, self.tone_low, self.tone_high):
+            widget.changed.connect(self.preview.request)
+        self.image_layer.changed.connect(self._forget_metrics)
+        self.viewer.dims.events.current_step.connect(self._on_step)
+        layer_events.removed.connect(self._on_layer_removed)
+        LabyrinthWidget.instances.add(self)
 
     # -- construction ------------------------------------------------------------------------
 
@@ -135,6 +178,30 @@ class LabyrinthWidget(QWidget):
             text="Compare", tooltip="Show the input and the last result side by side (grid)."
         )
         self.cancel_button.enabled = False
+        self.measure = CheckBox(
+            text="measure every pass",
+            value=True,
+            tooltip="Stack mode: measure each pass on the plane on screen as it renders "
+            "(table and plot below); untick for the fastest stack.",
+        )
+        self.replace = CheckBox(
+            text="replace the previous result",
+            value=True,
+            tooltip="A run of the same input and mode replaces the layer of the last one "
+            "instead of adding another.",
+        )
+        self.preview_toggle = CheckBox(
+            text="preview",
+            value=False,
+            tooltip="Render the plane on screen into one preview layer at every change of a "
+            "parameter, of the input or of the plane shown; Run still renders the result.",
+        )
+        options = Container(
+            widgets=[self.preview_toggle, self.measure, self.replace],
+            layout="horizontal",
+            labels=False,
+        )
+        options.margins = (0, 0, 0, 0)
         buttons = Container(
             widgets=[self.run_button, self.cancel_button, self.compare_button],
             layout="horizontal",
@@ -144,8 +211,11 @@ class LabyrinthWidget(QWidget):
         self.status = Label(value="")
         self.status.native.setWordWrap(True)
         self.status.native.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignVCenter)
+        self.progress_bar = QProgressBar()
+        self.progress_bar.setVisible(False)
+        self.progress_bar.setFormat("%v of %m steps")
         self.mode_box = Container(
-            widgets=[self.mode, self.sweep_parameter, self.sweep_values, buttons]
+            widgets=[self.mode, self.sweep_parameter, self.sweep_values, options, buttons]
         )
         self.mode.changed.connect(self._on_mode_changed)
         self.sweep_parameter.changed.connect(self._on_sweep_parameter)
@@ -172,9 +242,11 @@ class LabyrinthWidget(QWidget):
         layout.addWidget(self.form.parameter_box.native)
         layout.addWidget(self.reading_section)
         layout.addWidget(self.mode_box.native)
+        layout.addWidget(self.progress_bar)
         layout.addWidget(self.status.native)
         layout.addWidget(self.metrics_title)
         layout.addWidget(self.metrics_table)
+        layout.addWidget(self.metrics_plot)
         layout.addStretch(1)
         scroll = QScrollArea()
         scroll.setWidgetResizable(True)
@@ -209,6 +281,28 @@ class LabyrinthWidget(QWidget):
         sweeping = self.mode.value == "sweep"
         self.sweep_parameter.visible = sweeping
         self.sweep_values.visible = sweeping
+        self.measure.visible = self.mode.value == "stack"
+        self._forget_metrics()
+
+    def _forget_metrics(self, *_args) -> None:
+        """Clear the metrics of the last stack: another mode, input or plane is on screen."""
+        self.metrics_table.clear_passes()
+        self.metrics_plot.clear()
+        self._shown_plane = None
+
+    def _on_step(self, *_args) -> None:
+        self.preview.request()
+        if self._shown_plane is not None:
+            snapshot = self.inputs.snapshot()
+            if snapshot is None or snapshot.visible_index != self._shown_plane:
+                self._forget_metrics()
+
+    def _on_preview_toggled(self, enabled: bool) -> None:
+        self._watch_window()
+        self.preview.set_enabled(enabled)
+
+    def _say(self, text: str) -> None:
+        self.status.value = text
 
     def _on_sweep_parameter(self, parameter: str) -> None:
         self.sweep_values.value = default_sweep_text(parameter, self.form.value(parameter))
@@ -224,6 +318,7 @@ class LabyrinthWidget(QWidget):
             planes=self.planes.value,
             sweep_parameter=self.sweep_parameter.value,
             sweep_text=self.sweep_values.value,
+            metrics=bool(self.measure.value),
         )
 
     def plan(self) -> RenderPlan:
@@ -263,29 +358,39 @@ class LabyrinthWidget(QWidget):
             show_error(f"Labyrinthine tiling: {exc}")
             self.status.value = f"Not started: {exc}"
             return None
+        self._watch_window()
         worker = render_worker(plan)
         worker.returned.connect(self._on_returned)
         worker.finished.connect(self._on_finished)
+        worker.yielded.connect(self.progress_bar.setValue)
         self.worker = worker
         self._plan = plan
+        self._input = self.image_layer.value
         self._outcome_received = False
         self.run_button.enabled = False
         self.cancel_button.enabled = True
-        self.status.value = f"Rendering {plan.name} …"
+        self.progress_bar.setRange(0, plan.total_steps)
+        self.progress_bar.setValue(0)
+        self.progress_bar.setVisible(True)
+        self.status.value = f"Rendering {plan.description} …"
         if start:
             worker.start()
         return worker
 
     def cancel(self, *_args) -> None:
         """Stop the running worker at its next plane or pass; no layer is added."""
+        self._cancel_because("")
+
+    def _cancel_because(self, reason: str) -> None:
         if self.worker is None or self._plan is None:
             return
         stop(self.worker, self._plan)
+        self._cancel_reason = reason
         self.status.value = "Cancelling …"
 
     def _on_returned(self, outcome: Outcome | Failure | None) -> None:
         plan = self._plan
-        if outcome is None or plan is None or plan.cancel.is_set():
+        if outcome is None or plan is None or plan.cancel.is_set() or self._closed:
             return
         self._outcome_received = True
         if isinstance(outcome, Failure):
@@ -299,19 +404,65 @@ class LabyrinthWidget(QWidget):
             self.status.value = f"Failed: {exc}"
 
     def _add_result(self, plan: RenderPlan, outcome: Outcome) -> None:
-        self.last_result = layer = add_result_layer(self.viewer, plan, outcome)
-        if plan.mode == "stack":
+        key = (plan.source, plan.mode)
+        previous = self._results.get(key) if self.replace.value else None
+        self.last_result = layer = add_result_layer(self.viewer, plan, outcome, previous)
+        self._results[key] = layer
+        self.sweep_label.refresh()
+        if plan.mode == "stack" and outcome.metric_rows:
             self.metrics_table.show_passes(outcome.metric_rows)
-        self.status.value = f"Added {layer.name} ({outcome.seconds:.1f} s)"
+            self.metrics_plot.show_passes(outcome.metric_rows)
+            self._shown_plane = tuple(plan.visible_index)
+        self.status.value = f"Added {plan.description} ({outcome.seconds:.1f} s)"
 
     def _on_finished(self) -> None:
         cancelled = self._plan is not None and not self._outcome_received
         self.worker = None
         self._plan = None  # holds the input data: let it go
+        self._input = None
         self.run_button.enabled = True
         self.cancel_button.enabled = False
+        self.progress_bar.setVisible(False)
         if cancelled:
-            self.status.value = "Cancelled: no layer added"
+            self.status.value = f"Cancelled: {self._cancel_reason or 'no layer added'}"
+        self._cancel_reason = ""
+
+    # -- lifecycle ---------------------------------------------------------------------------
+
+    def _on_layer_removed(self, event) -> None:
+        """Removing the input of a run cancels it: its result would have nowhere to go."""
+        if self.worker is not None and event.value is self._input:
+            self._cancel_because("the input layer was removed")
+
+    def close_down(self) -> None:
+        """The dock or the viewer is closing: cancel the run and the preview, add nothing."""
+        if self._closed:
+            return
+        self._closed = True
+        self._cancel_because("the widget was closed")
+        self.preview.close()
+        self.sweep_label.disconnect()
+        self.viewer.dims.events.current_step.disconnect(self._on_step)
+
+    def event(self, event) -> bool:
+        if event.type() == QEvent.Type.ParentChange and self.parent() is None:
+            self.close_down()  # napari took the widget out of its dock: the dock was closed
+        return super().event(event)
+
+    def showEvent(self, event) -> None:  # noqa: N802 - Qt's name
+        self._watch_window()  # docked by now: the viewer's main window
+        super().showEvent(event)
+
+    def _watch_window(self) -> None:
+        window = self.window()
+        if window is not self and id(window) != self._watched_window:
+            window.installEventFilter(self)
+            self._watched_window = id(window)
+
+    def eventFilter(self, watched, event) -> bool:  # noqa: N802 - Qt's name
+        if event.type() == QEvent.Type.Close and watched is self.window():
+            self.close_down()  # the viewer's window closes
+        return super().eventFilter(watched, event)
 
     # -- compare -----------------------------------------------------------------------------
 

@@ -27,12 +27,11 @@ def _steps_of(run: Generator[int, None, Any]) -> Generator[int, None, Any]:
     return (yield from run)
 
 
-def render_worker(plan: RenderPlan):
-    """An unstarted napari worker that runs ``plan``, with a progress bar of its steps."""
+def render_worker(plan: RenderPlan, progress: bool = True):
+    """An unstarted napari worker that runs ``plan``; ``progress``: a bar in the activity panel."""
     run = render(plan)
-    worker = create_worker(
-        _steps_of, run, _progress={"total": plan.total_steps, "desc": PROGRESS_TITLE}
-    )
+    bar = {"_progress": {"total": plan.total_steps, "desc": PROGRESS_TITLE}} if progress else {}
+    worker = create_worker(_steps_of, run, **bar)
     plan.abort_requested = lambda: worker.abort_requested
     # An aborted napari worker stops driving its generator without closing it:
     # closing the run here stops its rendering threads now, not when it is collected.
@@ -46,13 +45,23 @@ def stop(worker, plan: RenderPlan) -> None:
     worker.quit()
 
 
-def add_result_layer(viewer: Viewer, plan: RenderPlan, outcome: Outcome) -> Image:
-    """Add the layer of a finished run; a stack or sweep shows its last plane."""
+def add_result_layer(
+    viewer: Viewer, plan: RenderPlan, outcome: Outcome, previous: Image | None = None
+) -> Image:
+    """Add the layer of a finished run; a stack or sweep shows its last plane.
+
+    A ``previous`` result still in the viewer is replaced: the new layer takes
+    its place in the layer list.
+    """
     data, kwargs = result_layer(plan, outcome)
     # Added hidden, so that napari slices it once, where the viewer stands (a
     # new layer is otherwise sliced at index 0 first: a lazy plane computed
     # for nothing), after the slider of a stack or sweep moves to its end.
     layer = viewer.add_image(data, visible=False, **kwargs)
+    if previous is not None and previous in viewer.layers:
+        position = viewer.layers.index(previous)
+        viewer.layers.remove(previous)
+        viewer.layers.move(viewer.layers.index(layer), position)
     if plan.mode in ("stack", "sweep"):
         axis = viewer.dims.ndim - layer.ndim
         viewer.dims.set_current_step(axis, data.shape[0] - 1)

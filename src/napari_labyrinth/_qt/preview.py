@@ -1,0 +1,159 @@
+"""Live preview: the plane on screen re-rendered into one layer as the parameters change.
+
+While the preview is on, every change of a parameter, of the input or of the
+plane on screen restarts a short timer (debounce); when it fires, the plane
+on screen is rendered in a worker. A newer request cancels the render in
+flight, and a render that is not the newest is never shown: each one carries
+a generation number, and only the newest generation updates the layer. The
+layer is updated in place; turning the preview off removes it.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+from napari.layers import Image
+from napari.viewer import Viewer
+from qtpy.QtCore import QObject, QTimer
+
+from ..plan import Choices, LayerSnapshot, RenderPlan, make_plan, preview_choices
+from ..run import Failure, Outcome, result_layer
+from .worker import render_worker, stop
+
+#: Milliseconds without a change before the preview renders.
+DEBOUNCE_MS = 120
+
+#: The layer attributes a newer preview may change besides its data.
+_UPDATED = ("translate", "scale", "contrast_limits", "metadata", "name")
+
+
+class Preview:
+    """The preview of one widget.
+
+    Parameters
+    ----------
+    viewer : napari.viewer.Viewer
+    snapshot, choices : callable
+        Return the input layer's snapshot and the user's choices now.
+    report : callable
+        Called with a line for the user (a failed preview says why).
+    parent : QObject
+        Owner of the debounce timer (the widget): the timer dies with it.
+
+    Attributes
+    ----------
+    layer : napari.layers.Image or None
+        The preview layer, while the preview is on and has rendered.
+    latencies : list of float
+        Seconds from each request that was shown to its layer update.
+    """
+
+    def __init__(
+        self,
+        viewer: Viewer,
+        snapshot: Callable[[], LayerSnapshot | None],
+        choices: Callable[[], Choices],
+        report: Callable[[str], None],
+        parent: QObject,
+    ) -> None:
+        self.viewer = viewer
+        self._snapshot, self._choices, self._report = snapshot, choices, report
+        self.enabled = False
+        self.layer: Image | None = None
+        self.latencies: list[float] = []
+        self.generation = 0
+        self.shown_generation = 0
+        self._requested_at = 0.0
+        self._key = None
+        self._worker = None
+        self._plan: RenderPlan | None = None
+        self._timer = QTimer(parent)
+        self._timer.setSingleShot(True)
+        self._timer.setInterval(DEBOUNCE_MS)
+        self._timer.timeout.connect(self._render)
+
+    @property
+    def busy(self) -> bool:
+        """Whether a preview is waiting for its timer or rendering."""
+        return self._timer.isActive() or self._worker is not None
+
+    def set_enabled(self, enabled: bool) -> None:
+        """Turn the preview on (renders at once) or off (removes its layer)."""
+        self.enabled = bool(enabled)
+        if self.enabled:
+            self._key = None
+            self.request()
+            return
+        self._timer.stop()
+        self._cancel()
+        if self.layer is not None and self.layer in self.viewer.layers:
+            self.viewer.layers.remove(self.layer)
+        self.layer = None
+
+    def request(self, *_args) -> None:
+        """Something changed: render again once nothing has changed for ``DEBOUNCE_MS``."""
+        if not self.enabled:
+            return
+        self._requested_at = time.perf_counter()
+        self._timer.start()
+
+    def _render(self) -> None:
+        snapshot = self._snapshot()
+        if snapshot is None:
+            return
+        if self.layer is not None and snapshot.data is self.layer.data:
+            return  # the preview layer itself is selected as the input
+        try:
+            plan = make_plan(snapshot, preview_choices(self._choices()))
+        except (TypeError, ValueError) as exc:
+            self._report(f"Preview: {exc}")
+            return
+        key = (id(snapshot.data), snapshot.visible_index, repr(plan.arguments))
+        if key == self._key and self.layer is not None:
+            return  # nothing that the preview shows changed
+        self._key = key
+        self._cancel()
+        self.generation += 1
+        generation, requested_at = self.generation, self._requested_at
+        worker = render_worker(plan, progress=False)
+        worker.returned.connect(
+            lambda outcome: self._show(generation, requested_at, plan, outcome)
+        )
+        worker.finished.connect(lambda: self._finished(worker))
+        self._worker, self._plan = worker, plan
+        worker.start()
+
+    def _cancel(self) -> None:
+        if self._worker is not None and self._plan is not None:
+            stop(self._worker, self._plan)
+        self._worker = self._plan = None
+
+    def _finished(self, worker) -> None:
+        if worker is self._worker:
+            self._worker = self._plan = None
+
+    def _show(self, generation: int, requested_at: float, plan: RenderPlan, outcome) -> None:
+        if not self.enabled or generation != self.generation or outcome is None:
+            return  # off, stale, or cancelled: a newer render is on its way
+        if isinstance(outcome, Failure):
+            self._report(f"Preview failed: {outcome.message}")
+            return
+        assert isinstance(outcome, Outcome)
+        data, kwargs = result_layer(plan, outcome)
+        kwargs["name"] = f"{plan.source} · preview"
+        layer = self.layer
+        if layer is None or layer not in self.viewer.layers or layer.data.shape != data.shape:
+            if layer is not None and layer in self.viewer.layers:
+                self.viewer.layers.remove(layer)
+            self.layer = self.viewer.add_image(data, **kwargs)
+        else:
+            layer.data = data
+            for name in _UPDATED:
+                setattr(layer, name, kwargs[name])
+        self.shown_generation = generation
+        self.latencies.append(time.perf_counter() - requested_at)
+
+    def close(self) -> None:
+        """Stop for good (the widget is closing)."""
+        self.set_enabled(False)

@@ -1,0 +1,81 @@
+"""Live preview in a real viewer: one layer, updated in place, newest render only."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("napari")
+pytest.importorskip("pytestqt")
+
+from napari_labyrinth import labyrinth
+
+from .helpers import RUN_TIMEOUT_MS, noise
+
+
+def _settled(widget):
+    preview = widget.preview
+    return preview.layer is not None and not preview.busy
+
+
+def _previews(viewer):
+    return [layer for layer in viewer.layers if layer.name.endswith("· preview")]
+
+
+def test_preview_updates_one_layer_in_place_and_follows_the_slider(qtbot, viewer, widget):
+    data = noise((3, 64, 64))
+    viewer.add_image(data, name="movie", contrast_limits=(0, 255))
+    viewer.dims.set_current_step(0, 0)
+    widget.fields["passes"].value = 2
+    widget.preview_toggle.value = True
+    qtbot.waitUntil(lambda: _settled(widget), timeout=RUN_TIMEOUT_MS)
+    layer = widget.preview.layer
+    assert layer.name == "movie · preview"
+    np.testing.assert_array_equal(layer.data[0], labyrinth(data[0], passes=2))
+
+    widget.fields["variance_threshold"].value = 0.06
+    generation = widget.preview.generation
+    qtbot.waitUntil(
+        lambda: widget.preview.shown_generation > generation and _settled(widget),
+        timeout=RUN_TIMEOUT_MS,
+    )
+    assert widget.preview.layer is layer and _previews(viewer) == [layer]  # in place
+    want = labyrinth(data[0], passes=2, variance_threshold=0.06)
+    np.testing.assert_array_equal(layer.data[0], want)
+
+    viewer.dims.set_current_step(0, 2)  # the preview follows the plane on screen
+    qtbot.waitUntil(lambda: layer.translate[0] == 2 and _settled(widget), timeout=RUN_TIMEOUT_MS)
+    want = labyrinth(data[2], passes=2, variance_threshold=0.06, plane_offset=2)
+    np.testing.assert_array_equal(layer.data[0], want)
+    assert len(viewer.layers) == 2
+
+    widget.preview_toggle.value = False
+    assert widget.preview.layer is None and _previews(viewer) == []
+
+
+def test_a_stale_render_never_replaces_a_newer_one(qtbot, viewer, widget):
+    data = noise((256, 256))
+    viewer.add_image(data, name="picture", contrast_limits=(0, 255))
+    widget.preview_toggle.value = True
+    qtbot.waitUntil(lambda: _settled(widget), timeout=RUN_TIMEOUT_MS)
+    for value in (0.02, 0.03, 0.04, 0.05, 0.07):  # renders started one after the other
+        widget.fields["variance_threshold"].value = value
+        widget.preview._render()
+    qtbot.waitUntil(lambda: _settled(widget), timeout=RUN_TIMEOUT_MS)
+    qtbot.wait(200)
+    assert widget.preview.shown_generation == widget.preview.generation
+    want = labyrinth(data, variance_threshold=0.07)
+    np.testing.assert_array_equal(widget.preview.layer.data, want)
+
+
+def test_run_still_renders_the_full_result_beside_the_preview(qtbot, viewer, widget):
+    data = noise((2, 32, 32))
+    viewer.add_image(data, name="movie", contrast_limits=(0, 255))
+    widget.preview_toggle.value = True
+    qtbot.waitUntil(lambda: _settled(widget), timeout=RUN_TIMEOUT_MS)
+    widget.image_layer.value = viewer.layers["movie"]
+    worker = widget.run()
+    assert worker is not None
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    result = viewer.layers["movie · labyrinth"]
+    np.testing.assert_array_equal(result.data, labyrinth(data))
