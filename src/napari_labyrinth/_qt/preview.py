@@ -22,7 +22,7 @@ from ..run import Failure, Outcome, result_layer
 from .worker import render_worker, stop
 
 #: Milliseconds without a change before the preview renders.
-DEBOUNCE_MS = 120
+DEBOUNCE_MS = 60
 
 #: The layer attributes a newer preview may change besides its data.
 _UPDATED = ("translate", "scale", "contrast_limits", "metadata", "name")
