@@ -226,12 +226,12 @@ def labyrinth(
     diagnostics : structured ndarray
         Only with ``return_diagnostics``: shape ``(passes,) + plane_shape``
         where ``plane_shape`` is ``image.shape`` without the two spatial
-        axes (with ``colour="luminance"``, also without the colour axis: one
-        luminance plane per position), fields ``kept_by_mean`` (Eq. 2 held), ``left_by_variance``
-        (Eq. 4 held, g left), ``pushed`` (Eq. 4 held, g pushed from M),
-        ``redrawn`` (Eq. 3), ``out_of_tries`` and ``skipped``
-        (non-finite or without finite neighbours), which add up to the
-        number of pixels of a plane.
+        axes (with ``colour="luminance"``, also without the colour axis:
+        one luminance plane per position), fields ``kept_by_mean`` (Eq. 2
+        held), ``left_by_variance`` (Eq. 4 held, g left), ``pushed`` (Eq. 4
+        held, g pushed from M), ``redrawn`` (Eq. 3), ``out_of_tries`` and
+        ``skipped`` (non-finite or without finite neighbours), which add up
+        to the number of pixels of a plane.
 
     Raises
     ------
