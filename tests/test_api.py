@@ -109,13 +109,17 @@ def test_rgb_channels_render_independently_and_alpha_is_kept():
     from skimage import data
 
     rgb = data.astronaut()[::4, ::4].copy()
-    out, diagnostics = labyrinth(rgb, channel_axis=-1, passes=1, return_diagnostics=True)
+    out, diagnostics = labyrinth(
+        rgb, channel_axis=-1, colour="channels", passes=1, return_diagnostics=True
+    )
     assert out.shape == rgb.shape and diagnostics.shape == (1, 3)
     channels_first = labyrinth(np.moveaxis(rgb, -1, 0), passes=1)
     np.testing.assert_array_equal(np.moveaxis(out, -1, 0), channels_first)
     alpha = np.linspace(0, 255, rgb.shape[0] * rgb.shape[1]).reshape(rgb.shape[:2])
     rgba = np.dstack([rgb, alpha.astype(np.uint8)])
-    out4, diagnostics4 = labyrinth(rgba, channel_axis=2, passes=1, return_diagnostics=True)
+    out4, diagnostics4 = labyrinth(
+        rgba, channel_axis=2, colour="channels", passes=1, return_diagnostics=True
+    )
     np.testing.assert_array_equal(out4[..., 3], rgba[..., 3])
     np.testing.assert_array_equal(out4[..., :3], out)
     assert diagnostics4["skipped"][0, 3] == rgb.shape[0] * rgb.shape[1]
@@ -124,7 +128,9 @@ def test_rgb_channels_render_independently_and_alpha_is_kept():
 def test_channel_axis_in_the_middle_of_a_time_series():
     rng = np.random.default_rng(0)
     movie = rng.integers(0, 256, (2, 3, 20, 30), dtype=np.uint8)  # T, C, Y, X
-    out, diagnostics = labyrinth(movie, channel_axis=1, passes=1, return_diagnostics=True)
+    out, diagnostics = labyrinth(
+        movie, channel_axis=1, colour="channels", passes=1, return_diagnostics=True
+    )
     assert diagnostics.shape == (1, 2, 3)
     np.testing.assert_array_equal(out, labyrinth(movie, passes=1))
 
@@ -338,6 +344,9 @@ def test_bad_images_raise_clear_errors(image, error, match):
         (dict(preset="nope"), ValueError, "preset"),
         (dict(channel_axis=5), ValueError, "channel_axis"),
         (dict(channel_axis=1.0), TypeError, "channel_axis"),
+        (dict(colour="rgb"), ValueError, "colour"),
+        (dict(colour=1), TypeError, "colour"),
+        (dict(colour="luminance"), ValueError, "colour='luminance' needs a channel_axis"),
         (dict(tone_limits=(5, 5)), ValueError, "tone_limits"),
         (dict(tone_limits=(0, float("nan"))), ValueError, "tone_limits"),
         (dict(tone_limits=3), TypeError, "tone_limits"),
@@ -360,7 +369,7 @@ def test_bad_sweeps_raise_clear_errors(camera):
     with pytest.raises(ValueError, match="mean_threshold"):
         labyrinth_sweep(camera, "mean_threshold", [0.1, -1])
     with pytest.raises(TypeError, match="unknown parameter"):
-        labyrinth_stack(camera, passes=2, colour=3)
+        labyrinth_stack(camera, passes=2, palette=3)
 
 
 def test_version_is_exposed():

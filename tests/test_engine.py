@@ -55,7 +55,7 @@ def test_stack_and_sweep_modes_give_what_the_functions_give(camera):
 
 def test_rgba_progress_counts_only_the_rendered_planes(camera):
     rgba = np.dstack([camera, camera, camera, np.full_like(camera, 7)])
-    progress, result = _drain(labyrinth_steps(rgba, passes=2, channel_axis=-1))
+    progress, result = _drain(labyrinth_steps(rgba, passes=2, channel_axis=-1, colour="channels"))
     assert progress[-1].done == progress[-1].total == 6  # alpha is not rendered
     np.testing.assert_array_equal(result.image[..., 3], rgba[..., 3])
 
@@ -68,7 +68,7 @@ def test_bad_arguments_are_refused_at_the_call_not_at_the_first_step(camera):
     with pytest.raises(TypeError, match="sweep"):
         labyrinth_steps(camera, parameter="passes", values=[1])
     with pytest.raises(TypeError, match="unknown parameter"):
-        labyrinth_steps(camera, colour=3)
+        labyrinth_steps(camera, palette=3)
 
 
 @pytest.mark.parametrize("workers", [1, 2])

@@ -234,8 +234,8 @@ def test_visible_plane_is_rounded_and_clipped():
     [
         ((3, 32, 32), False, [2], 0, 7),  # 3 planes x 2 passes + assembling
         ((3, 32, 32), False, [3], 3, 13),  # stack: and the metrics of 3 passes
-        ((2, 8, 8, 4), True, [2], 0, 13),  # RGBA: alpha is kept, 3 channels render
-        ((8, 8, 3), True, [1], 0, 4),  # one RGB plane rendered alone
+        ((2, 8, 8, 4), True, [2], 0, 5),  # RGBA: alpha is kept, the luminance renders
+        ((8, 8, 3), True, [1], 0, 2),  # one RGB plane rendered alone
         ((8, 8), False, [1, 2, 4], 0, 8),  # a sweep of passes on one plane
         ((8, 8), False, [4], 0, 5),
     ],
@@ -368,7 +368,7 @@ def test_rgb_layers_render_each_channel_and_keep_no_colormap():
     plan = make_plan(snapshot, Choices(planes=CURRENT_PLANE, overrides={"passes": 1}))
     assert plan.arguments["channel_axis"] == -1
     assert plan.arguments["plane_offset"] == 3
-    assert plan.total_steps == 3 + 1
+    assert plan.total_steps == 1 + 1  # one luminance plane, then assembling
     assert plan.layer_kwargs["rgb"] is True and "colormap" not in plan.layer_kwargs
     grey = make_plan(LayerSnapshot.of(noise((8, 8)), colormap="magma"), Choices())
     assert grey.layer_kwargs["colormap"] == "magma"

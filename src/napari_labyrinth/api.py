@@ -21,6 +21,7 @@ import numpy as np
 
 from . import _engine
 from ._engine import DIAGNOSTICS_DTYPE, Progress, run_pass
+from .core.colour import TONES, LuminancePlanes, resolve_colour
 from .core.parameters import SEED, LabyrinthParameters
 from .core.planes import (
     PlaneLayout,
@@ -58,6 +59,7 @@ RENDER_OPTIONS = {
     "preset": DEFAULT_PRESET,
     "seed": 0,
     "channel_axis": None,
+    "colour": None,
     "tone_limits": None,
     "plane_offset": 0,
     "workers": None,
@@ -102,6 +104,7 @@ def labyrinth(
     include_centre: bool | None = None,
     scan: str | None = None,
     channel_axis: int | None = None,
+    colour: str | None = None,
     tone_limits: tuple[float, float] | None = None,
     plane_offset: int = 0,
     workers: int | None = None,
@@ -176,8 +179,22 @@ def labyrinth(
         the four checkerboard colours of ``(y % 2, x % 2)`` in turn, which
         lets a single plane use every worker.
     channel_axis : int, optional
-        Axis of colour channels, each rendered as an independent plane; with
-        4 channels the last one is alpha and is kept as it is.
+        Axis of colour channels. With 4 channels the last one is alpha and
+        is kept as it is. How the others are rendered is ``colour``.
+    colour : {"luminance", "channels"}, optional
+        How an image with ``channel_axis`` is rendered. ``"luminance"``
+        (default for 3 or 4 channels, R, G, B first): the luminance
+        ``Y = 0.2126 R + 0.7152 G + 0.0722 B`` is rendered as a grey image,
+        one plane per position (its tone limits are the luminance's), and
+        each changed pixel's colour takes the new luminance Y' keeping its
+        hue: darker, R, G and B are scaled by Y'/Y (hue and saturation
+        kept); brighter, Y' - Y is added to each (hue kept, noise in dark
+        colours not amplified); black becomes grey; integer channels that
+        would leave the dtype's range move towards grey instead.
+        ``"channels"`` (default for other channel counts): every channel is
+        rendered as an independent plane, with its own random tones.
+        ``"luminance"`` for an image without 3 or 4 channels raises a
+        ValueError.
     tone_limits : (float, float), optional
         Values mapped to tones 0 and 255. Default: (0, 255) for uint8, the
         0.5th and 99.5th percentiles of the finite values for other dtypes
@@ -203,16 +220,18 @@ def labyrinth(
     -------
     rendered : ndarray
         Same shape and dtype as ``image``. Pixels the algorithm did not
-        change keep their exact input value; non-finite pixels stay as they
-        are and never count as neighbours.
+        change keep their exact input value; non-finite pixels (in the
+        luminance mode: pixels with a non-finite R, G or B) stay as they are
+        and never count as neighbours.
     diagnostics : structured ndarray
         Only with ``return_diagnostics``: shape ``(passes,) + plane_shape``
         where ``plane_shape`` is ``image.shape`` without the two spatial
-        axes, fields ``kept_by_mean`` (Eq. 2 held), ``left_by_variance``
-        (Eq. 4 held, g left), ``pushed`` (Eq. 4 held, g pushed from M),
-        ``redrawn`` (Eq. 3), ``out_of_tries`` and ``skipped``
-        (non-finite or without finite neighbours), which add up to the
-        number of pixels of a plane.
+        axes (with ``colour="luminance"``, also without the colour axis:
+        one luminance plane per position), fields ``kept_by_mean`` (Eq. 2
+        held), ``left_by_variance`` (Eq. 4 held, g left), ``pushed`` (Eq. 4
+        held, g pushed from M), ``redrawn`` (Eq. 3), ``out_of_tries`` and
+        ``skipped`` (non-finite or without finite neighbours), which add up
+        to the number of pixels of a plane.
 
     Raises
     ------
@@ -365,7 +384,9 @@ def labyrinth_steps(
     ------
     Progress
         After each pass of each plane: ``done`` and ``total`` plane-passes,
-        the sweep's rendering, the plane and the pass.
+        the sweep's rendering, the plane and the pass. A colour image
+        rendered in its luminance (``colour``) renders one plane per
+        position, named by the index of its first channel's plane.
     Result
         Last: the rendering and its diagnostics. A dask input yields only
         the (lazy) result.
@@ -413,6 +434,7 @@ def labyrinth_steps(
                 parameters,
                 seed,
                 channel_axis=render["channel_axis"],
+                colour=render["colour"],
                 tone_limits=render["tone_limits"],
                 plane_offset=plane_offset,
                 record_passes=record_passes,
@@ -420,26 +442,42 @@ def labyrinth_steps(
             for parameters, seed in runs
         ]
         return iter([Result(_stack(lazy) if mode == "sweep" else lazy[0], None)])
-    array, layout, scale = _prepare(image, render["channel_axis"], render["tone_limits"])
+    array, layout, scale, grey = _prepare(
+        image, render["channel_axis"], render["tone_limits"], render["colour"]
+    )
     layout = dataclasses.replace(layout, plane_offset=plane_offset)
-    return _steps(array, layout, scale, runs, mode, workers)
+    return _steps(array, layout, scale, grey, runs, mode, workers)
 
 
 def _steps(
     array: np.ndarray,
     layout: PlaneLayout,
     scale: ToneScale,
+    grey: LuminancePlanes | None,
     runs: list[tuple[LabyrinthParameters, int]],
     mode: str,
     workers: int,
 ) -> Generator[Progress | Result, None, None]:
-    total = layout.n_rendered * sum(parameters.passes for parameters, _ in runs)
+    rendered = layout if grey is None else layout.luminance_layout()
+    total = rendered.n_rendered * sum(parameters.passes for parameters, _ in runs)
     done = 0
     results = []
     for run, (parameters, seed) in enumerate(runs):
-        rendering = _engine.render(
-            array, layout, scale, parameters, seed, record_passes=mode == "stack", workers=workers
-        )
+        record_passes = mode == "stack"
+        if grey is None:
+            rendering = _engine.render(
+                array,
+                layout,
+                scale,
+                parameters,
+                seed,
+                record_passes=record_passes,
+                workers=workers,
+            )
+        else:
+            rendering = _render_luminance(
+                array, layout, grey, parameters, seed, record_passes=record_passes, workers=workers
+            )
         while True:
             try:
                 plane, pass_number, partial = next(rendering)
@@ -452,6 +490,61 @@ def _steps(
         yield Result(_stack([image for image, _ in results]), [d for _, d in results])
     else:
         yield Result(*results[0])
+
+
+def _render_luminance(
+    array: np.ndarray,
+    layout: PlaneLayout,
+    grey: LuminancePlanes,
+    parameters: LabyrinthParameters,
+    seed: int,
+    *,
+    record_passes: bool,
+    workers: int,
+) -> Generator[tuple[int, int, np.ndarray], None, tuple[np.ndarray, np.ndarray]]:
+    """:func:`_engine.render` of a colour image in its luminance, with the same protocol.
+
+    The engine renders the luminance tones (one plane per position, the
+    stream of its first channel); the change is put back into the colour of
+    a copy of ``array``: in stack mode after every pass of every plane, so
+    that the array each progress event carries holds it, otherwise at the
+    end. Yields ``(plane, pass_number, result)`` with ``plane`` the flat
+    index of the position's first channel among the image's planes.
+    """
+    channels = layout.leading_shape[-1]
+    positions = layout.leading_shape[:-1]
+    passes = parameters.passes
+    if record_passes:
+        result = np.empty((passes + 1,) + array.shape, dtype=array.dtype)
+        result[...] = array
+    else:
+        result = array.copy()
+    rendering = _engine.render(
+        grey.tones,
+        layout.luminance_layout(),
+        TONES,
+        parameters,
+        seed,
+        record_passes=record_passes,
+        workers=workers,
+    )
+    try:
+        while True:
+            try:
+                position, pass_number, tones = next(rendering)
+            except StopIteration as finished:
+                tones, diagnostics = finished.value
+                break
+            if record_passes:
+                index = np.unravel_index(position, positions)
+                target = layout.to_planes(result[pass_number])
+                grey.put_back(target, tones[pass_number], index)
+            yield position * channels, pass_number, result
+    finally:
+        rendering.close()  # cancelled: the engine's threads stop now
+    if not record_passes and passes:
+        grey.put_back_all(layout.to_planes(result), tones)
+    return result, np.ascontiguousarray(diagnostics[..., 0])
 
 
 def _finish(
@@ -494,13 +587,17 @@ def _stack(arrays):
 
 
 def _prepare(
-    image: Any, channel_axis: Any, tone_limits: Any
-) -> tuple[np.ndarray, PlaneLayout, ToneScale]:
-    """The image as an array, its planes, and its tone scale (alpha excluded)."""
+    image: Any, channel_axis: Any, tone_limits: Any, colour: Any
+) -> tuple[np.ndarray, PlaneLayout, ToneScale, LuminancePlanes | None]:
+    """The image as an array, its planes, its tone scale (alpha excluded) and, rendered in
+    its luminance, the luminance planes (the scale is then the luminance's)."""
     array = _validate_image(image)
     layout = PlaneLayout(array.shape, normalise_channel_axis(channel_axis, array.ndim))
+    if resolve_colour(colour, array.shape, layout.channel_axis) == "luminance":
+        grey = LuminancePlanes(layout.to_planes(array), tone_limits)
+        return array, layout, grey.scale, grey
     scale = resolve_tone_scale(without_alpha(array, layout.channel_axis), tone_limits)
-    return array, layout, scale
+    return array, layout, scale, None
 
 
 def _validate_image(image: Any) -> np.ndarray:

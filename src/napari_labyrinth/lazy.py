@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from ._engine import render, run_to_end
+from .core.colour import TONES, LuminancePlanes, luminance, luminance_for_limits, resolve_colour
 from .core.parameters import LabyrinthParameters
 from .core.planes import PlaneLayout, normalise_channel_axis, validate_shape, without_alpha
 from .core.tone_scale import DEFAULT_PERCENTILES, resolve_tone_scale, validate_dtype
@@ -89,15 +90,25 @@ def render_lazy(
     tone_limits,
     plane_offset: int,
     record_passes: bool,
+    colour: str | None = None,
 ):
-    """A lazy dask array rendering ``image`` block by block, whole planes per block."""
+    """A lazy dask array rendering ``image`` block by block, whole planes per block.
+
+    In the luminance mode (``colour``) a block holds every channel of its
+    planes, and the default tone limits are those of the luminance, streamed.
+    """
     import dask.array as da
 
     dtype = validate_dtype(np.dtype(image.dtype))
     validate_shape(image.shape)
     channel_axis = normalise_channel_axis(channel_axis, image.ndim)
+    in_luminance = resolve_colour(colour, image.shape, channel_axis) == "luminance"
     if tone_limits is None and dtype != np.uint8:
-        tone_limits = default_tone_limits(image, channel_axis)  # exact, streamed
+        if in_luminance:
+            values = luminance_for_limits(lazy_luminance(image, channel_axis), dtype)
+            tone_limits = default_tone_limits(values)  # exact, streamed
+        else:
+            tone_limits = default_tone_limits(image, channel_axis)  # exact, streamed
     scale = resolve_tone_scale(np.empty(0, dtype), tone_limits)
     planes = image if channel_axis is None else da.moveaxis(image, channel_axis, -3)
     whole = {planes.ndim - 2: -1, planes.ndim - 1: -1}
@@ -116,8 +127,28 @@ def render_lazy(
             leading_origin=tuple(start for start, _ in location[:-2]),
             leading_total=leading_total,
         )
-        rendering = render(block, layout, scale, parameters, seed, record_passes=record_passes)
-        result, _ = run_to_end(rendering)
+        if not in_luminance:
+            rendering = render(block, layout, scale, parameters, seed, record_passes=record_passes)
+            result, _ = run_to_end(rendering)
+            return result
+        grey = LuminancePlanes(block, scale=scale)  # the block is in the layout of planes
+        rendering = render(
+            grey.tones,
+            layout.luminance_layout(),
+            TONES,
+            parameters,
+            seed,
+            record_passes=record_passes,
+        )
+        tones, _ = run_to_end(rendering)
+        if not record_passes:
+            result = block.copy()
+            grey.put_back_all(result, tones)
+            return result
+        result = np.empty((parameters.passes + 1,) + block.shape, dtype=block.dtype)
+        result[...] = block
+        for k in range(1, parameters.passes + 1):
+            grey.put_back_all(result[k], tones[k])
         return result
 
     if record_passes:
@@ -134,6 +165,23 @@ def render_lazy(
     if channel_axis is not None:
         rendered = da.moveaxis(rendered, -3, channel_axis + shift)
     return rendered
+
+
+def lazy_luminance(image, channel_axis: int):
+    """The luminance (float64, ``core.colour.luminance``) of a dask array's R, G, B, lazily.
+
+    Shaped as ``image`` without its colour axis; each block is computed from
+    the same block's channels.
+    """
+    axis = channel_axis % image.ndim
+    channels = image.rechunk({axis: -1})
+    return channels.map_blocks(
+        luminance,
+        axis=axis,
+        drop_axis=axis,
+        dtype=np.float64,
+        meta=np.empty((0,) * (image.ndim - 1)),
+    )
 
 
 # -- tone limits ----------------------------------------------------------------------------------

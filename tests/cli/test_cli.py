@@ -141,7 +141,7 @@ def test_default_options_are_the_api_defaults(tmp_path):
     np.testing.assert_array_equal(read_image(tmp_path / "out.png"), labyrinth(image))
 
 
-def test_rgb_png_is_rendered_per_channel(tmp_path):
+def test_rgb_png_is_rendered_with_its_channel_axis(tmp_path):
     image = np.stack([gradient_image(np.uint8) for _ in range(3)], axis=-1)
     write_image(tmp_path / "rgb.png", image)
     assert (

@@ -40,17 +40,21 @@ def test_a_plane_cut_from_a_stack_renders_as_within_it_with_its_first_plane_inde
 
 
 @pytest.mark.parametrize(
-    "shape, channel_axis, passes, steps",
+    "shape, channel_axis, passes, colour, steps",
     [
-        ((3, 32, 32), None, 2, 6),
-        ((2, 8, 8, 4), -1, 2, 12),  # RGBA: 3 channels render, alpha does not
-        ((8, 8, 3), 2, [1, 2], 9),  # a sweep: the passes of every rendering
-        ((4, 8, 8), 0, 3, 9),  # channels first: the fourth is alpha
-        ((8, 8), None, 0, 0),
+        ((3, 32, 32), None, 2, None, 6),
+        ((2, 8, 8, 4), -1, 2, "channels", 12),  # RGBA: 3 channels render, alpha does not
+        ((2, 8, 8, 4), -1, 2, None, 4),  # in the luminance (default): one plane per position
+        ((8, 8, 3), 2, [1, 2], "channels", 9),  # a sweep: the passes of every rendering
+        ((8, 8, 3), 2, [1, 2], "luminance", 3),
+        ((4, 8, 8), 0, 3, "channels", 9),  # channels first: the fourth is alpha
+        ((4, 8, 8), 0, 3, None, 3),
+        ((5, 8, 8, 2), -1, 1, None, 10),  # 2 channels: rendered one by one
+        ((8, 8), None, 0, None, 0),
     ],
 )
-def test_step_count_is_rendered_planes_times_passes(shape, channel_axis, passes, steps):
-    assert step_count(shape, channel_axis, passes) == steps
+def test_step_count_is_rendered_planes_times_passes(shape, channel_axis, passes, colour, steps):
+    assert step_count(shape, channel_axis, passes, colour) == steps
 
 
 def test_layout_of_channels_between_other_axes():

@@ -100,10 +100,12 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
 
     The preset, one flag per parameter of the table that takes one word
     (``--set`` takes any of them as ``NAME=VALUE``), the seed, the tone
-    limits, the channel axis, and ``--stack`` or ``--sweep``. Values are kept
+    limits, the channel axis and how channels are rendered, and ``--stack`` or
+    ``--sweep``. Values are kept
     as text here and parsed by ``render_options``, so that a bad value gets
     the table's one-line message.
     """
+    from ..core.colour import COLOUR_MODES
     from ..core.parameters import PARAMETERS, SWEEPABLE, format_value
     from ..core.presets import DEFAULT_PRESET, PRESETS
 
@@ -137,6 +139,14 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
         metavar="A",
         help=(
             "axis of colour channels (default: -1 for RGB(A) PNG/JPEG/BMP files, none for TIFF)"
+        ),
+    )
+    render.add_argument(
+        "--colour",
+        choices=tuple(COLOUR_MODES),
+        help=(
+            "how channels are rendered: "
+            + "; ".join(f"{name}: {text}" for name, text in COLOUR_MODES.items())
         ),
     )
     render.add_argument(
@@ -251,6 +261,8 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
         raise UsageError(one_line(str(exc))) from None
     if args.preset is not None:
         options["preset"] = args.preset
+    if args.colour is not None:
+        options["colour"] = args.colour
     if seed is not None:
         options["seed"] = seed
     if args.tone_limits is not None:

@@ -258,9 +258,10 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     counts plane-passes).
     """
     from .. import api
-    from ..core.planes import plane_axes
+    from ..core.colour import luminance_for_limits, resolve_colour
+    from ..core.planes import normalise_channel_axis, plane_axes
     from ..io import image_format, open_image, release_files, write_array
-    from ..lazy import default_tone_limits, is_lazy
+    from ..lazy import default_tone_limits, is_lazy, lazy_luminance
 
     lazy = True if args.scheduler is not None else None
     image = open_image(job.input, lazy=lazy, channel_axis=args.channel_axis)
@@ -284,7 +285,12 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
                 f"{job.input}: finding the default tone limits (0.5th and 99.5th "
                 "percentiles) in a pass over the data; --tone-limits skips it"
             )
-            low, high = default_tone_limits(image, channel_axis)
+            axis = normalise_channel_axis(channel_axis, image.ndim)
+            if resolve_colour(options.get("colour"), image.shape, axis) == "luminance":
+                values = luminance_for_limits(lazy_luminance(image, axis), image.dtype)
+                low, high = default_tone_limits(values)  # the luminance's, as the API's
+            else:
+                low, high = default_tone_limits(image, channel_axis)
             kwargs["tone_limits"] = (low, high)
             _note(f"{job.input}: tone limits {low!r} {high!r}")
         for event in api.labyrinth_steps(image, mode, **kwargs):

@@ -7,8 +7,10 @@ spatial axes holds independent planes (time, z), the colour axis
 is alpha, which is never rendered. Plane k of an image draws the random
 stream of plane ``plane_offset + k``, k being the flat index of the plane
 among the leading axes with the colour axis last, so that a part of a stack
-renders exactly as it does within the whole. The API, the lazy (dask) path,
-the command line and the widget all use this module.
+renders exactly as it does within the whole. An RGB(A) image rendered in its
+luminance (``core.colour``) renders one plane per position, with the stream
+of the position's first channel. The API, the lazy (dask) path, the command
+line and the widget all use this module.
 """
 
 from __future__ import annotations
@@ -20,6 +22,8 @@ from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
+
+from .colour import resolve_colour
 
 #: Number of channels that makes the last channel alpha.
 RGBA_CHANNELS = 4
@@ -113,13 +117,23 @@ def first_plane_index(
     return int(np.ravel_multi_index(index, leading[: len(index)])) * per_index
 
 
-def step_count(shape: Sequence[int], channel_axis: int | None, passes: Sequence[int] | int) -> int:
+def step_count(
+    shape: Sequence[int],
+    channel_axis: int | None,
+    passes: Sequence[int] | int,
+    colour: str | None = None,
+) -> int:
     """Progress steps of rendering an image of ``shape``: rendered planes × passes.
 
     ``passes`` is the passes of one rendering, or a sequence with those of
-    each rendering of a sweep. Alpha planes are not rendered and not counted.
+    each rendering of a sweep. Alpha planes are not rendered and not counted;
+    in the luminance mode (``colour``, see :func:`core.colour.resolve_colour`:
+    the default for 3 or 4 channels) one plane is rendered per position, not
+    one per channel.
     """
     layout = PlaneLayout(tuple(shape), normalise_channel_axis(channel_axis, len(shape)))
+    if resolve_colour(colour, layout.shape, layout.channel_axis) == "luminance":
+        layout = layout.luminance_layout()
     total_passes = passes if isinstance(passes, numbers.Integral) else sum(passes)
     return layout.n_rendered * int(total_passes)
 
@@ -193,6 +207,25 @@ class PlaneLayout:
             where = tuple(o + i for o, i in zip(self.leading_origin, index))
             flat = np.ravel_multi_index(where, self.leading_total) if where else 0
         return self.plane_offset + int(flat)
+
+    def luminance_layout(self) -> PlaneLayout:
+        """Layout of the luminance of this image, in the layout of :meth:`to_planes`.
+
+        The luminance array has the shape ``leading_shape[:-1] + (1, H, W)``:
+        one plane per position, its colour axis reduced to one, and each
+        plane draws the random stream of the position's first channel, so
+        that a part of a stack (``plane_offset``) renders as within it.
+        """
+        if self.channel_axis is None:
+            raise ValueError("an image without channel_axis has no luminance layout")
+        leading = self.leading_shape
+        return PlaneLayout(
+            (*leading[:-1], 1, *self.plane_shape),
+            len(leading) - 1,
+            plane_offset=self.plane_offset,
+            leading_origin=self.leading_origin or (0,) * len(leading),
+            leading_total=self.leading_total or leading,
+        )
 
     def to_planes(self, array):
         """View of an array shaped like the image as ``leading_shape + (H, W)``."""

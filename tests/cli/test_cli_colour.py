@@ -1,0 +1,103 @@
+"""``--colour``: colour images rendered in their luminance or per channel, in memory and lazily."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from napari_labyrinth import labyrinth, labyrinth_stack
+from napari_labyrinth.cli import EXIT_FAILED, EXIT_OK, EXIT_USAGE, main
+from napari_labyrinth.core.colour import COLOUR_MODES, luminance
+from napari_labyrinth.io import read_image, write_image
+
+OPTIONS = ["--passes", "2", "--seed", "7"]
+API_OPTIONS = {"passes": 2, "seed": 7}
+
+
+def colour_image(shape=(40, 48), dtype=np.uint8, seed=0) -> np.ndarray:
+    """Coloured blobs on a dark, noisy background, different in every channel."""
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[: shape[-2], : shape[-1]]
+    channels = []
+    for c in range(3):
+        blob = 200 * np.exp(-((y - 10 - 8 * c) ** 2 + (x - 12 - 9 * c) ** 2) / 60.0)
+        channels.append(blob + rng.poisson(3.0, shape))
+    image = np.clip(np.stack(channels, axis=-1), 0, 255)
+    if np.dtype(dtype) == np.uint16:
+        return (image * 257).astype(np.uint16)
+    return image.astype(dtype)
+
+
+def render(*argv) -> int:
+    return main(["render", *map(str, argv)])
+
+
+def error_lines(stderr: str) -> list[str]:
+    return [line for line in stderr.splitlines() if line.startswith("napari-labyrinth: error:")]
+
+
+def test_rgb_png_renders_its_luminance_by_default_and_channels_on_request(tmp_path):
+    image = colour_image()
+    write_image(tmp_path / "rgb.png", image)
+    assert render(tmp_path / "rgb.png", "-o", tmp_path / "default.png", *OPTIONS) == EXIT_OK
+    luminance_mode = labyrinth(image, channel_axis=-1, colour="luminance", **API_OPTIONS)
+    np.testing.assert_array_equal(read_image(tmp_path / "default.png"), luminance_mode)
+    argv = ["--colour", "channels", *OPTIONS]
+    assert render(tmp_path / "rgb.png", "-o", tmp_path / "channels.png", *argv) == EXIT_OK
+    channels = labyrinth(image, channel_axis=-1, colour="channels", **API_OPTIONS)
+    np.testing.assert_array_equal(read_image(tmp_path / "channels.png"), channels)
+    assert not np.array_equal(channels, luminance_mode)
+    argv = ["--colour", "luminance", "--stack", *OPTIONS]
+    assert render(tmp_path / "rgb.png", "-o", tmp_path / "stack.tif", *argv) == EXIT_OK
+    stack = labyrinth_stack(image, channel_axis=-1, **API_OPTIONS)
+    np.testing.assert_array_equal(read_image(tmp_path / "stack.tif"), stack)
+
+
+def test_luminance_of_a_grey_tiff_fails_naming_colour(tmp_path, capsys):
+    write_image(tmp_path / "grey.tif", colour_image()[..., 0])
+    argv = ["--colour", "luminance"]
+    assert render(tmp_path / "grey.tif", "-o", tmp_path / "out.tif", *argv) == EXIT_FAILED
+    (line,) = error_lines(capsys.readouterr().err)
+    assert "grey.tif" in line and "colour='luminance'" in line and "channel_axis" in line
+    assert not (tmp_path / "out.tif").exists()
+
+
+def test_unknown_colour_is_a_usage_error(tmp_path, capsys):
+    write_image(tmp_path / "rgb.png", colour_image())
+    assert render(tmp_path / "rgb.png", "-o", tmp_path / "o.png", "--colour", "hsv") == EXIT_USAGE
+    err = capsys.readouterr().err
+    assert "--colour" in err and "Traceback" not in err
+
+
+def test_help_lists_the_colour_modes(capsys):
+    assert main(["render", "--help"]) == EXIT_OK
+    out = " ".join(capsys.readouterr().out.split())
+    assert "--colour {luminance,channels}" in out
+    for name in COLOUR_MODES:
+        assert f"{name}: " in out
+
+
+def test_a_colour_store_renders_lazily_as_in_memory(tmp_path, capsys):
+    zarr = pytest.importorskip("zarr")
+    pytest.importorskip("dask.array")
+    image = np.stack([colour_image(dtype=np.uint16, seed=k) for k in range(3)])  # (3, 40, 48, 3)
+    image[..., 2] //= 4  # the channels' percentiles differ from the luminance's
+    array = zarr.create_array(
+        store=str(tmp_path / "in.zarr"),
+        shape=image.shape,
+        chunks=(2, 40, 48, 2),
+        dtype=image.dtype,
+    )
+    array[...] = image
+    argv = ["--channel-axis", "-1", *OPTIONS]
+    assert render(tmp_path / "in.zarr", "-o", tmp_path / "out.zarr", *argv) == EXIT_OK
+    expected = labyrinth(image, channel_axis=-1, **API_OPTIONS)  # limits found in memory
+    np.testing.assert_array_equal(zarr.open_array(str(tmp_path / "out.zarr"))[...], expected)
+    low, high = (float(v) for v in np.percentile(luminance(image), (0.5, 99.5)))
+    assert f"tone limits {low!r} {high!r}" in capsys.readouterr().err  # the luminance's
+    argv = ["--channel-axis", "-1", "--colour", "channels", *OPTIONS]
+    assert render(tmp_path / "in.zarr", "-o", tmp_path / "channels.zarr", *argv) == EXIT_OK
+    np.testing.assert_array_equal(
+        zarr.open_array(str(tmp_path / "channels.zarr"))[...],
+        labyrinth(image, channel_axis=-1, colour="channels", **API_OPTIONS),
+    )
