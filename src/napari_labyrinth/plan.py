@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from . import __version__, metrics
+from .core.colour import resolve_colour
 from .core.parameters import PARAMETERS, SWEEPABLE, format_value
 from .core.planes import first_plane_index, step_count
 from .core.presets import DEFAULT_PRESET, PRESETS, resolve_parameters, resolve_sweep
@@ -202,6 +203,9 @@ class Choices:
         Its values as typed, e.g. ``"0.47, 0.50, 0.53"`` (sweep mode).
     metrics : bool
         Measure every pass of a stack on the plane on screen (stack mode).
+    colour : {"luminance", "channels"}
+        How an RGB(A) layer is rendered: its luminance, the colour kept, or
+        each channel on its own (ignored for other layers).
     """
 
     mode: str = "single"
@@ -213,6 +217,7 @@ class Choices:
     sweep_parameter: str = "variance_threshold"
     sweep_text: str = ""
     metrics: bool = True
+    colour: str = "luminance"
 
 
 # -- text in, text out -------------------------------------------------------------------------
@@ -472,6 +477,7 @@ def run_steps(
     rgb: bool,
     passes_per_run: Sequence[int],
     stack_passes: int = 0,
+    colour: str | None = None,
 ) -> int:
     """Number of yields of a run of data of ``shape`` (the progress bar's total).
 
@@ -479,7 +485,7 @@ def run_steps(
     rendered), one per pass whose metrics a stack computes, and one for
     assembling the result.
     """
-    return step_count(shape, -1 if rgb else None, passes_per_run) + stack_passes + 1
+    return step_count(shape, -1 if rgb else None, passes_per_run, colour) + stack_passes + 1
 
 
 # -- the plan ----------------------------------------------------------------------------------
@@ -569,6 +575,8 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     arguments: dict[str, Any] = {"preset": preset, "seed": seed, **resolved.as_dict()}
     arguments["tone_limits"] = limits
     arguments["channel_axis"] = -1 if snapshot.rgb else None
+    if snapshot.rgb:
+        arguments["colour"] = resolve_colour(choices.colour, snapshot.data.shape, -1)
     sweep = None
     if mode == "sweep":
         sweep = _sweep(preset, edits, choices.sweep_parameter, choices.sweep_text)
@@ -590,7 +598,8 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
         passes_per_run = sweep[1] if sweep[0] == "passes" else passes_per_run * len(sweep[1])
     stack_passes = resolved.passes if mode == "stack" and choices.metrics else 0
     rendered_shape = source.shape[0 if source_index is None else len(source_index) :]
-    total = run_steps(rendered_shape, snapshot.rgb, passes_per_run, stack_passes)
+    colour = arguments.get("colour")
+    total = run_steps(rendered_shape, snapshot.rgb, passes_per_run, stack_passes, colour)
 
     label = plane_label(snapshot.axis_labels, visible_index) if partial else ""
     name = result_name(snapshot.name, mode, sweep[0] if sweep else "", label)

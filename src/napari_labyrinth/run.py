@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from . import api, metrics
+from .core.colour import luminance, resolve_colour
 from .core.planes import PlaneLayout, first_plane_index
 from .plan import METADATA_KEY, METRIC_ROWS, RenderPlan
 
@@ -117,9 +118,10 @@ def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
 
 
 def _grey(plane: np.ndarray, rgb: bool) -> np.ndarray:
-    """A 2-D float plane for the metrics: colour planes averaged over R, G and B."""
-    plane = np.asarray(plane, dtype=np.float32)
-    return plane[..., :3].mean(axis=-1) if rgb else plane
+    """A 2-D float32 plane for the metrics: the luminance of a colour plane."""
+    if rgb:
+        return luminance(np.asarray(plane), axis=-1).astype(np.float32)
+    return np.asarray(plane, dtype=np.float32)
 
 
 class PassMetrics:
@@ -134,7 +136,8 @@ class PassMetrics:
         self.rgb = plan.rgb
         self.index = () if plan.source_index is not None else tuple(plan.visible_index)
         self.comparison = metrics.Comparison(_grey(data[self.index], self.rgb))
-        self.planes = visible_planes(data.shape, self.index, self.rgb)
+        colour = plan.arguments.get("colour")
+        self.planes = visible_planes(data.shape, self.index, self.rgb, colour)
         self.waiting: dict[int, set[int]] = {}
         self.previous = np.asarray(data[self.index])
         self.rows: list[dict[str, float]] = []
@@ -164,14 +167,20 @@ class PassMetrics:
         self.previous = rendered
 
 
-def visible_planes(shape: tuple[int, ...], index: tuple[int, ...], rgb: bool) -> set[int]:
-    """Flat indices (the API's plane order) of the planes rendered at ``index`` of the data."""
-    layout = PlaneLayout(tuple(shape), -1 % len(shape) if rgb else None)
-    first = first_plane_index(shape, index, -1 if rgb else None)
-    per_position = layout.n_planes // max(1, math.prod(layout.leading_shape[: len(index)]))
+def visible_planes(
+    shape: tuple[int, ...], index: tuple[int, ...], rgb: bool, colour: str | None = None
+) -> set[int]:
+    """Flat indices (the API's plane order, ``Progress.plane``) of the planes rendered at
+    ``index`` of the data: one per colour channel but alpha, or the first channel's alone
+    when the luminance is rendered."""
+    channel_axis = -1 if rgb else None
+    first = first_plane_index(shape, index, channel_axis)
+    if not rgb or resolve_colour(colour, shape, -1) == "luminance":
+        return {first}
+    layout = PlaneLayout(tuple(shape), len(shape) - 1)
     return {
         first + k
-        for k in range(per_position)
+        for k in range(shape[-1])
         if not layout.is_alpha(np.unravel_index(first + k, layout.leading_shape))
     }
 

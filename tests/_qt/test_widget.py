@@ -263,3 +263,30 @@ def test_compare_shows_input_and_result_side_by_side_and_back(qtbot, viewer, wid
     widget.toggle_compare()
     assert not widget.comparing and not grid.enabled
     assert all(layer.visible for layer in (other, source, result))
+
+
+# -- colour ------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("colour", ["luminance", "channels"])
+def test_an_rgb_layer_keeps_its_hue_in_luminance_mode(qtbot, viewer, widget, colour):
+    from skimage import color, data
+
+    rgb = data.immunohistochemistry()[:96, :96].copy()
+    viewer.add_image(rgb, name="ihc")
+    assert widget.inputs.colour.enabled
+    widget.inputs.colour.value = colour
+    run(qtbot, widget)
+    result = viewer.layers["ihc · labyrinth"]
+    assert result.metadata[METADATA_KEY]["arguments"]["colour"] == colour
+    np.testing.assert_array_equal(result.data, reproduce(result, rgb))
+    changed = (result.data != rgb).any(axis=-1)
+    inside = changed & (result.data < 255).all(axis=-1) & (result.data > 0).all(axis=-1)
+    assert inside.sum() > 100
+    hue_in = color.rgb2hsv(rgb)[..., 0][inside]
+    hue_out = color.rgb2hsv(result.data)[..., 0][inside]
+    turn = np.abs((hue_out - hue_in + 0.5) % 1.0 - 0.5)  # circular difference, in turns
+    if colour == "luminance":
+        assert np.median(turn) < 0.01  # the rounding of 8-bit channels only
+    else:
+        assert np.median(turn) > 0.02  # each channel drew its own tones: hue changes

@@ -9,6 +9,7 @@ from magicgui.widgets import CheckBox, ComboBox, Container, LineEdit, RadioButto
 from napari.layers import Image
 from napari.viewer import Viewer
 
+from ..core.colour import COLOUR_MODES
 from ..plan import (
     ALL_PLANES,
     CURRENT_PLANE,
@@ -92,6 +93,12 @@ class InputSection:
             tooltip="Map the layer's contrast limits to tones 0 and 255, so that what you "
             "see is what gets rendered.",
         )
+        self.colour = ComboBox(
+            label="colour",
+            choices=list(COLOUR_MODES),
+            value="luminance",
+            tooltip="RGB(A) layers: " + "; ".join(f"{k}: {v}" for k, v in COLOUR_MODES.items()),
+        )
         self.tone_low = LineEdit(label="tone limits", tooltip="Value mapped to tone 0.")
         self.tone_high = LineEdit(tooltip="Value mapped to tone 255.")
         tone_row = Container(
@@ -102,7 +109,7 @@ class InputSection:
         )
         tone_row.margins = (0, 0, 0, 0)
         self.box = Container(
-            widgets=[self.image_layer, self.planes, tone_row, self.follow_contrast]
+            widgets=[self.image_layer, self.planes, self.colour, tone_row, self.follow_contrast]
         )
         self.image_layer.changed.connect(self.follow_layer)
         self.follow_contrast.changed.connect(self._on_follow_contrast)
@@ -125,6 +132,7 @@ class InputSection:
         if layer is not None:
             layer.events.contrast_limits.connect(self._on_contrast_limits)
         self.planes.enabled = layer is not None and layer.ndim > 2
+        self.colour.enabled = layer is not None and bool(layer.rgb)
         self._on_contrast_limits()
 
     def _on_contrast_limits(self, *_args) -> None:

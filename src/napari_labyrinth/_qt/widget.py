@@ -143,7 +143,7 @@ class LabyrinthWidget(QWidget):
         self.preview_toggle.changed.connect(self._on_preview_toggled)
         for widget in (*self.fields.values(), self.seed, self.preset, self.image_layer):
             widget.changed.connect(self.preview.request)
-        for widget in (self.follow_contrast, self.tone_low, self.tone_high):
+        for widget in (self.follow_contrast, self.tone_low, self.tone_high, self.inputs.colour):
             widget.changed.connect(self.preview.request)
         self.image_layer.changed.connect(self._forget_metrics)
         self.viewer.dims.events.current_step.connect(self._on_step)
@@ -319,6 +319,7 @@ class LabyrinthWidget(QWidget):
             sweep_parameter=self.sweep_parameter.value,
             sweep_text=self.sweep_values.value,
             metrics=bool(self.measure.value),
+            colour=self.inputs.colour.value,
         )
 
     def plan(self) -> RenderPlan:
