@@ -8,12 +8,27 @@ same tone scale (for uint8, the paper's 0-255).
 The fine-scale component of an image, used by several metrics, is
 ``h = g - G_1 * g`` (the image minus its Gaussian blur with sigma 1 pixel):
 it holds the 1-3 pixel structure that the tiling draws.
+
+:func:`describe` computes every metric at once, sharing the maps they have in
+common; :func:`describe_steps` yields them one at a time (a caller can stop
+between two), and :class:`Comparison` keeps the maps of an original for the
+renderings of it that follow (the passes of a stack). The heavy work runs in
+numba kernels (:mod:`._metrics_kernels`) that release the GIL, on
+``workers`` threads. The Gaussian windows, the fine-scale component and the
+wall map are computed as ``scipy.ndimage.gaussian_filter`` computes them,
+bit for bit; the structure tensors in float32 (see ``docs/metrics.md``).
 """
 
 from __future__ import annotations
 
-import functools
 import hashlib
+import math
+import os
+import threading
+from collections import OrderedDict
+from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 import numpy as np
 
@@ -35,33 +50,25 @@ ENERGY_FLOOR = 6.0
 #: Least fraction of wall pixels for the wall metrics to be defined (else NaN).
 MIN_COVER = 0.01
 
+#: Gaussian sigma of the input's contours in :func:`contour_alignment`.
+CONTOUR_SIGMA = 4.0
+
+#: The metrics, in the order :func:`describe` and :func:`describe_steps` give them.
+METRICS = (
+    "texture_added",
+    "labyrinth_cover",
+    "wall_width",
+    "orientation_coherence",
+    "contour_alignment",
+    "edge_enhancement",
+)
+
 # Lag vectors (dy, dx) of the four lattice directions and of their normals.
 _DIRECTIONS = ((0, 1), (1, 0), (1, 1), (1, -1))
 _NORMALS = ((1, 0), (0, 1), (1, -1), (1, 1))
 
-
-def _memoise_on_plane(function):
-    """Cache the last few results of ``function(plane)`` by the plane's content.
-
-    :func:`describe` asks several metrics for the same wall map and
-    orientation field; the cache makes it compute each once.
-    """
-    cache: dict = {}
-
-    @functools.wraps(function)
-    def wrapper(image):
-        plane = _plane(image)
-        key = (plane.shape, hashlib.blake2b(plane.tobytes(), digest_size=16).digest())
-        if key not in cache:
-            if len(cache) >= 4:
-                cache.pop(next(iter(cache)))
-            result = function(plane)
-            for array in result if isinstance(result, tuple) else (result,):
-                array.flags.writeable = False  # shared by every caller
-            cache[key] = result
-        return cache[key]
-
-    return wrapper
+#: Rows per thread below which a plane is not split between threads.
+_MIN_BAND_ROWS = 64
 
 
 def _plane(image, name="image") -> np.ndarray:
@@ -72,15 +79,238 @@ def _plane(image, name="image") -> np.ndarray:
         raise TypeError(f"{name} must hold real numbers, got dtype {array.dtype}")
     if min(array.shape) < 3:
         raise ValueError(f"{name} must be at least 3 x 3 pixels, got shape {array.shape}")
-    return array.astype(np.float64)
+    return array
+
+
+def _float_plane(array: np.ndarray, *, copy: bool = False) -> np.ndarray:
+    """A C-contiguous float64 copy of (or, with ``copy=False``, view on) a checked plane."""
+    if copy:
+        return np.array(array, dtype=np.float64, order="C", copy=True)
+    return np.ascontiguousarray(array, dtype=np.float64)
+
+
+def _same_shape(before: np.ndarray, after: np.ndarray) -> None:
+    if before.shape != after.shape:
+        raise ValueError(f"original {before.shape} and rendered {after.shape} differ in shape")
+
+
+def _default_workers() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) -> list:
+    """``kernel(*arguments, y0, y1)`` on bands of rows covering ``[0, height)``, on threads."""
+    workers = _default_workers() if workers is None else max(1, int(workers))
+    count = max(1, min(workers, height // _MIN_BAND_ROWS))
+    if count == 1:
+        return [kernel(*arguments, 0, height)]
+    edges = np.linspace(0, height, count + 1).astype(int)
+    with ThreadPoolExecutor(count) as pool:
+        futures = [
+            pool.submit(kernel, *arguments, int(y0), int(y1))
+            for y0, y1 in zip(edges[:-1], edges[1:])
+        ]
+        return [future.result() for future in futures]
+
+
+class _ContentCache:
+    """A small thread-safe cache keyed by an array's content (dtype, shape and bytes)."""
+
+    def __init__(self, size: int):
+        self._size = size
+        self._entries: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()
+
+    @staticmethod
+    def key(array: np.ndarray) -> tuple:
+        data = np.ascontiguousarray(array)
+        digest = hashlib.sha256(memoryview(data).cast("B")).digest()
+        return (data.dtype.str, data.shape, digest)
+
+    def get(self, key, make: Callable[[], Any]):
+        with self._lock:
+            if key in self._entries:
+                self._entries.move_to_end(key)
+                return self._entries[key]
+        value = make()  # outside the lock: another thread may compute the same value
+        with self._lock:
+            self._entries[key] = value
+            self._entries.move_to_end(key)
+            while len(self._entries) > self._size:
+                self._entries.popitem(last=False)
+        return value
+
+
+class _Maps:
+    """The maps of one float64 plane, each computed on first use, once (thread-safe).
+
+    ``plane`` must not change while the object is in use: callers pass a
+    private copy or a plane that lives only for the call.
+    """
+
+    def __init__(self, plane: np.ndarray, workers: int | None = None):
+        self.plane = plane
+        self.workers = workers
+        self._lock = threading.RLock()
+        self._values: dict[str, Any] = {}
+
+    def _get(self, name: str, compute: Callable[[], Any]):
+        with self._lock:
+            if name not in self._values:
+                self._values[name] = compute()
+            return self._values[name]
+
+    def _bands(self, kernel, *arguments) -> list:
+        return _in_bands(kernel, self.plane.shape[0], self.workers, *arguments)
+
+    def fine(self) -> tuple[np.ndarray, float]:
+        """``h = g - G_1 * g`` and ``sum(h**2)``."""
+
+        def compute():
+            fine = np.empty_like(self.plane)
+            totals = self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine)
+            return _frozen(fine), math.fsum(totals)
+
+        return self._get("fine", compute)
+
+    def _smooth(self, mode, source, energy, flags) -> list:
+        kernels = _kernels()
+        return self._bands(
+            kernels.smooth_band, source, self.plane, mode, _weights(WINDOW_SIGMA),
+            ENERGY_FLOOR**2, ALONG_THRESHOLD, ALTERNATION_THRESHOLD, energy, flags,
+        )  # fmt: skip
+
+    def walls(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """The wall map, the energy ``G_2 * h**2`` and the energy's sum."""
+
+        def compute():
+            fine, _ = self.fine()
+            energy = np.empty_like(fine)
+            walls = np.empty(fine.shape, dtype=bool)
+            results = self._smooth(_kernels().MODE_WALLS, fine, energy, walls)
+            return _frozen(walls), _frozen(energy), math.fsum(total for _, total in results)
+
+        return self._get("walls", compute)
+
+    def energy(self) -> tuple[np.ndarray, float]:
+        """The energy ``G_2 * h**2`` and its sum (without the wall map if it is not known)."""
+        with self._lock:
+            if "walls" in self._values:
+                _, energy, total = self._values["walls"]
+                return energy, total
+
+        def compute():
+            fine, _ = self.fine()
+            energy = np.empty_like(fine)
+            results = self._smooth(_kernels().MODE_ENERGY, fine, energy, np.empty((1, 1), bool))
+            return _frozen(energy), math.fsum(total for _, total in results)
+
+        return self._get("energy", compute)
+
+    def cover(self) -> float:
+        walls, _, _ = self.walls()
+        return np.count_nonzero(walls) / walls.size
+
+    def above_local_mean(self) -> np.ndarray:
+        """``g > G_2 * g``: where the plane is above its local mean."""
+
+        def compute():
+            positive = np.empty(self.plane.shape, dtype=bool)
+            self._smooth(_kernels().MODE_LOCAL_MEAN, self.plane, np.empty((1, 1)), positive)
+            return _frozen(positive)
+
+        return self._get("above_local_mean", compute)
+
+    def wall_orientation(self) -> tuple[np.ndarray, ...]:
+        """Strength, coherence * strength, cos and sin of twice the angle, of ``h``."""
+        return self._get(
+            "wall_orientation", lambda: _derived_orientation(self.fine()[0], WINDOW_SIGMA, self.workers)
+        )
+
+    def contours(self, sigma: float) -> tuple[np.ndarray, ...]:
+        """The same for the plane itself at ``sigma``: its contours."""
+        return self._get(
+            ("contours", float(sigma)), lambda: _derived_orientation(self.plane, sigma, self.workers)
+        )
+
+    def edges(self) -> tuple[np.ndarray, float, float, bool]:
+        """Sobel magnitude, its mean, ``sum((s - mean)**2)`` and whether it is constant."""
+
+        def compute():
+            kernels = _kernels()
+            edges = np.empty_like(self.plane)
+            results = self._bands(kernels.sobel_band, self.plane, edges)
+            mean = math.fsum(r[2] for r in results) / edges.size
+            spread = math.fsum(r[0] for r in self._bands(kernels.centred_sums, edges, edges, mean, mean))
+            constant = min(r[0] for r in results) == max(r[1] for r in results)
+            return _frozen(edges), mean, spread, constant
+
+        return self._get("edges", compute)
+
+
+def _kernels():
+    from . import _metrics_kernels  # numba is imported on first use only
+
+    return _metrics_kernels
+
+
+_WEIGHTS: dict[tuple[float, str], np.ndarray] = {}
+_WEIGHTS_LOCK = threading.Lock()
+
+
+def _weights(sigma: float, dtype=np.float64) -> np.ndarray:
+    """scipy's Gaussian weights for ``sigma`` (half of the kernel), cached (read-only)."""
+    key = (float(sigma), np.dtype(dtype).str)
+    with _WEIGHTS_LOCK:
+        if key not in _WEIGHTS:
+            _WEIGHTS[key] = _frozen(_kernels().gaussian_weights(sigma).astype(dtype))
+        return _WEIGHTS[key]
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False  # shared by every caller
+    return array
+
+
+def _orientation_maps(plane: np.ndarray, sigma: float, mode: int, workers, count: int):
+    kernels = _kernels()
+    outputs = [np.empty(plane.shape, dtype=np.float32) for _ in range(4)]
+    _in_bands(
+        kernels.orientation_band, plane.shape[0], workers, plane,
+        _weights(2 * sigma, np.float32), mode, *outputs,
+    )  # fmt: skip
+    return tuple(_frozen(output) for output in outputs[:count])
+
+
+def _derived_orientation(plane: np.ndarray, sigma: float, workers) -> tuple[np.ndarray, ...]:
+    return _orientation_maps(plane, sigma, _kernels().TENSOR_DERIVED, workers, 4)
+
+
+# --- the maps of renderings, shared between the single metrics ---------------------------
+
+#: Maps of the last few planes given to the single metrics, by content.
+_RENDERED = _ContentCache(4)
+#: Comparisons of the last few originals given to :func:`describe`, by content.
+_ORIGINALS = _ContentCache(2)
+
+
+def _maps_of(image, name: str = "image") -> _Maps:
+    """The (cached) maps of a plane given to one of the single metrics."""
+    array = _plane(image, name)
+    return _RENDERED.get(
+        ("maps", *_ContentCache.key(array)), lambda: _Maps(_float_plane(array, copy=True))
+    )
 
 
 def fine_scale(image) -> np.ndarray:
     """The fine-scale component ``h = g - G_1 * g`` of a plane."""
-    from scipy import ndimage
-
-    plane = _plane(image)
-    return plane - ndimage.gaussian_filter(plane, 1.0, mode="reflect")
+    maps = _Maps(_float_plane(_plane(image)))
+    fine, _ = maps.fine()
+    fine = fine.copy()  # the caller's own array
+    return fine
 
 
 def texture_added(original, rendered) -> float:
@@ -89,23 +319,19 @@ def texture_added(original, rendered) -> float:
     ``E(g) = mean(h**2)`` with h the fine-scale component. 1 means no texture
     was added, above 1 texture was added, below 1 the image was smoothed.
     """
-    before = float(np.mean(fine_scale(original) ** 2))
-    after = float(np.mean(fine_scale(rendered) ** 2))
-    if before == 0.0:
-        return np.inf if after > 0 else 1.0
-    return after / before
+    before = _Maps(_float_plane(_plane(original, "original")))
+    after = _Maps(_float_plane(_plane(rendered, "rendered")))
+    return _texture_added(before, after)
 
 
-def _local_correlation(h: np.ndarray, energy: np.ndarray, dy: int, dx: int) -> np.ndarray:
-    """``G * (h(p) h(p + d)) / G * h**2``, symmetric in d, with G a Gaussian window."""
-    from scipy import ndimage
+def _texture_added(before: _Maps, after: _Maps) -> float:
+    energy_before = before.fine()[1] / before.plane.size
+    energy_after = after.fine()[1] / after.plane.size
+    if energy_before == 0.0:
+        return math.inf if energy_after > 0 else 1.0
+    return energy_after / energy_before
 
-    product = h * np.roll(h, (-dy, -dx), axis=(0, 1))
-    product = 0.5 * (product + np.roll(product, (dy, dx), axis=(0, 1)))
-    return ndimage.gaussian_filter(product, WINDOW_SIGMA) / np.maximum(energy, 1e-12)
 
-
-@_memoise_on_plane
 def wall_map(image) -> np.ndarray:
     """Boolean map of pixels covered by oriented, wall-like fine texture.
 
@@ -118,24 +344,19 @@ def wall_map(image) -> np.ndarray:
     correlation over a Gaussian window of sigma ``WINDOW_SIGMA``. White and
     salt-and-pepper noise are not correlated along any direction; smooth
     edges and blur do not alternate.
-    """
-    from scipy import ndimage
 
-    h = fine_scale(image)
-    energy = ndimage.gaussian_filter(h * h, WINDOW_SIGMA)
-    walls = np.zeros(h.shape, dtype=bool)
-    for (ay, ax), (ny, nx) in zip(_DIRECTIONS, _NORMALS):
-        along = _local_correlation(h, energy, ay, ax) > ALONG_THRESHOLD
-        for w in (1, 2):
-            opposite = _local_correlation(h, energy, w * ny, w * nx) < -ALTERNATION_THRESHOLD
-            again = _local_correlation(h, energy, 2 * w * ny, 2 * w * nx) > ALTERNATION_THRESHOLD
-            walls |= along & opposite & again
-    return walls & (energy > ENERGY_FLOOR**2)
+    The local lag correlation is ``C(d) = G * (h(p) h(p + d)) / G * h**2``,
+    symmetric in d (the product averaged over d and -d), with G the Gaussian
+    window and lags wrapping around the plane. The result is read-only and
+    shared between callers.
+    """
+    walls, _, _ = _maps_of(image).walls()
+    return walls
 
 
 def labyrinth_cover(image) -> float:
     """Fraction of the image covered by labyrinth walls (see :func:`wall_map`)."""
-    return float(np.mean(wall_map(image)))
+    return _maps_of(image).cover()
 
 
 def wall_width(image) -> float:
@@ -150,20 +371,22 @@ def wall_width(image) -> float:
     ``w = 2 / (pi * rate)``. NaN when walls cover less than ``MIN_COVER`` of
     the image: there is no wall to measure.
     """
-    from scipy import ndimage
+    return _wall_width(_maps_of(image))
 
-    plane = _plane(image)
-    walls = wall_map(plane)
-    if walls.mean() < MIN_COVER:
-        return float("nan")
-    positive = plane > ndimage.gaussian_filter(plane, 2.0)
-    rates = []
-    for dy, dx in _DIRECTIONS:
-        both = walls & np.roll(walls, (-dy, -dx), axis=(0, 1))
-        flips = positive != np.roll(positive, (-dy, -dx), axis=(0, 1))
-        rates.append(flips[both].mean() / np.hypot(dy, dx))
+
+def _wall_width(maps: _Maps) -> float:
+    if maps.cover() < MIN_COVER:
+        return math.nan
+    walls, _, _ = maps.walls()
+    counts = np.sum(
+        maps._bands(_kernels().wall_pair_counts, walls, maps.above_local_mean()), axis=0
+    )
+    rates = [
+        flips / both / math.hypot(dy, dx) if both else math.nan
+        for (both, flips), (dy, dx) in zip(counts.tolist(), _DIRECTIONS)
+    ]
     rate = float(np.mean(rates))
-    return 2.0 / (np.pi * rate) if rate > 0 else float("inf")
+    return 2.0 / (math.pi * rate) if rate > 0 else math.inf
 
 
 def orientation(image, sigma: float = WINDOW_SIGMA):
@@ -177,22 +400,21 @@ def orientation(image, sigma: float = WINDOW_SIGMA):
     ``(angle, coherence, strength)``: the angle (radians, modulo pi) of the
     local gradient direction, the coherence ``((l1 - l2) / (l1 + l2))**2`` in
     [0, 1] of the eigenvalues ``l1 >= l2``, and ``l1 + l2``.
-    """
-    from scipy import ndimage
-    from skimage.feature import structure_tensor
 
-    doubled = ndimage.zoom(_plane(image), 2, order=1, grid_mode=True, mode="nearest")
-    jrr, jrc, jcc = (t[::2, ::2] for t in structure_tensor(doubled, 2 * sigma, order="rc"))
+    The upsampling is ``scipy.ndimage.zoom(plane, 2, order=1, grid_mode=True,
+    mode="nearest")``; only the tensor's samples on the original grid are
+    computed, in float32 (relative error about 1e-7).
+    """
+    plane = _float_plane(_plane(image))
+    jrr, jrc, jcc = (
+        component.astype(np.float64)
+        for component in _orientation_maps(plane, sigma, _kernels().TENSOR_COMPONENTS, None, 3)
+    )
     trace = jrr + jcc
     difference = np.sqrt((jrr - jcc) ** 2 + 4 * jrc**2)
     coherence = np.where(trace > 0, (difference / np.maximum(trace, 1e-12)) ** 2, 0.0)
     angle = 0.5 * np.arctan2(2 * jrc, jrr - jcc)
     return angle, coherence, trace
-
-
-@_memoise_on_plane
-def _wall_orientation(plane):
-    return orientation(fine_scale(plane))
 
 
 def orientation_coherence(image) -> float:
@@ -203,16 +425,21 @@ def orientation_coherence(image) -> float:
     as weight: near 1 for long parallel walls (a fingerprint texture), lower
     for a maze of short turning walls. NaN where there are no walls.
     """
-    plane = _plane(image)
-    walls = wall_map(plane)
-    if walls.mean() < MIN_COVER:
-        return float("nan")
-    _, coherence, strength = _wall_orientation(plane)
-    weight = strength * walls
-    return float((coherence * weight).sum() / weight.sum())
+    return _orientation_coherence(_maps_of(image))
 
 
-def contour_alignment(original, rendered, *, contour_sigma: float = 4.0) -> float:
+def _orientation_coherence(maps: _Maps) -> float:
+    if maps.cover() < MIN_COVER:
+        return math.nan
+    walls, _, _ = maps.walls()
+    strength, coherent, _, _ = maps.wall_orientation()
+    sums = maps._bands(_kernels().wall_weighted_sums, walls, strength, coherent)
+    numerator = math.fsum(s[0] for s in sums)
+    denominator = math.fsum(s[1] for s in sums)
+    return numerator / denominator if denominator > 0 else math.nan
+
+
+def contour_alignment(original, rendered, *, contour_sigma: float = CONTOUR_SIGMA) -> float:
     """How well the rendered walls run along the contours of the input.
 
     The weighted mean, over the walls of ``rendered`` (:func:`wall_map`), of
@@ -222,19 +449,30 @@ def contour_alignment(original, rendered, *, contour_sigma: float = 4.0) -> floa
     contours; 0.5: no relation; 0: walls across the contours. NaN where walls
     cover less than ``MIN_COVER`` of the image or the input has no contours.
     """
-    before, after = _plane(original, "original"), _plane(rendered, "rendered")
-    if before.shape != after.shape:
-        raise ValueError(f"original {before.shape} and rendered {after.shape} differ in shape")
-    walls = wall_map(after)
-    if walls.mean() < MIN_COVER:
-        return float("nan")
-    wall_angle, wall_coherence, wall_strength = _wall_orientation(after)
-    contour_angle, contour_coherence, contour_strength = orientation(before, contour_sigma)
-    weight = walls * wall_coherence * wall_strength * contour_coherence * contour_strength
-    total = weight.sum()
-    if total <= 0:
-        return float("nan")
-    return float((np.cos(wall_angle - contour_angle) ** 2 * weight).sum() / total)
+    before = _plane(original, "original")
+    after = _plane(rendered, "rendered")
+    _same_shape(before, after)
+    maps = _maps_of(after, "rendered")
+    if maps.cover() < MIN_COVER:
+        return math.nan
+    return _contour_alignment(_Maps(_float_plane(before)), maps, contour_sigma)
+
+
+def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTOUR_SIGMA) -> float:
+    if after.cover() < MIN_COVER:
+        return math.nan
+    walls, _, _ = after.walls()
+    _, wall_coherent, wall_cos, wall_sin = after.wall_orientation()
+    _, contour_coherent, contour_cos, contour_sin = before.contours(contour_sigma)
+    sums = after._bands(
+        _kernels().alignment_sums, walls, wall_coherent, wall_cos, wall_sin,
+        contour_coherent, contour_cos, contour_sin,
+    )  # fmt: skip
+    numerator = math.fsum(s[0] for s in sums)
+    total = math.fsum(s[1] for s in sums)
+    if not total > 0:
+        return math.nan
+    return numerator / total
 
 
 def edge_enhancement(original, rendered) -> float:
@@ -247,26 +485,107 @@ def edge_enhancement(original, rendered) -> float:
     it adds texture everywhere alike (noise), negative when it removes
     texture from the edges (blur), 0 when nothing changed.
     """
-    from scipy import ndimage
-    from skimage.filters import sobel
+    before = _plane(original, "original")
+    after = _plane(rendered, "rendered")
+    _same_shape(before, after)
+    return _edge_enhancement(_Maps(_float_plane(before)), _Maps(_float_plane(after)))
 
-    before, after = _plane(original, "original"), _plane(rendered, "rendered")
-    if before.shape != after.shape:
-        raise ValueError(f"original {before.shape} and rendered {after.shape} differ in shape")
-    added = ndimage.gaussian_filter(fine_scale(after) ** 2 - fine_scale(before) ** 2, WINDOW_SIGMA)
-    edges = sobel(before)
-    if added.std() == 0 or edges.std() == 0:
+
+def _edge_enhancement(before: _Maps, after: _Maps) -> float:
+    energy_after, total_after = after.energy()
+    energy_before, total_before = before.energy()
+    edges, edges_mean, edges_spread, edges_constant = before.edges()
+    added_mean = (total_after - total_before) / edges.size
+    sums = after._bands(
+        _kernels().added_edge_sums, energy_after, energy_before, edges, added_mean, edges_mean
+    )
+    cross = math.fsum(s[0] for s in sums)
+    spread = math.fsum(s[1] for s in sums)
+    added_constant = min(s[2] for s in sums) == max(s[3] for s in sums)
+    if added_constant or edges_constant:
         return 0.0
-    return float(np.corrcoef(added.ravel(), edges.ravel())[0, 1])
+    correlation = cross / math.sqrt(spread * edges_spread)
+    return float(min(1.0, max(-1.0, correlation)))
 
 
-def describe(original, rendered) -> dict[str, float]:
+# --- every metric at once -------------------------------------------------------------------
+
+
+class Comparison:
+    """The metrics of renderings of one original, its own maps computed once.
+
+    The passes of a stack are renderings of the same input: its fine-scale
+    energy, Sobel edges and contour orientation are computed on first use
+    and kept for the renderings that follow. Thread-safe; the original is
+    copied, so the caller may change its array afterwards.
+
+    Parameters
+    ----------
+    original : array_like
+        The input plane (2-D, real dtype, at least 3 x 3).
+    workers : int, optional
+        Threads the heavy maps are split between (rows in bands); all
+        cores by default. The results do not depend on it.
+
+    Examples
+    --------
+    >>> comparison = Comparison(original)                    # doctest: +SKIP
+    >>> rows = [comparison.describe(p) for p in passes]      # doctest: +SKIP
+    >>> for name, value in comparison.describe_steps(rendered):  # doctest: +SKIP
+    ...     if cancelled(): break
+    """
+
+    def __init__(self, original, *, workers: int | None = None):
+        self._maps = _Maps(_float_plane(_plane(original, "original"), copy=True), workers)
+        self.workers = workers
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self._maps.plane.shape
+
+    def describe_steps(self, rendered) -> Iterator[tuple[str, float]]:
+        """Yield ``(name, value)`` for each metric, in the order of :data:`METRICS`.
+
+        The rendering is copied when the generator starts; the work of a
+        metric is done when it is asked for, so closing the generator (or
+        stopping to iterate) between two metrics skips the rest.
+        """
+        after_array = _plane(rendered, "rendered")
+        _same_shape(self._maps.plane, after_array)
+        return self._steps(_Maps(_float_plane(after_array, copy=True), self.workers))
+
+    def _steps(self, after: _Maps) -> Iterator[tuple[str, float]]:
+        before = self._maps
+        yield "texture_added", _texture_added(before, after)
+        yield "labyrinth_cover", after.cover()
+        yield "wall_width", _wall_width(after)
+        yield "orientation_coherence", _orientation_coherence(after)
+        yield "contour_alignment", _contour_alignment(before, after)
+        yield "edge_enhancement", _edge_enhancement(before, after)
+
+    def describe(self, rendered) -> dict[str, float]:
+        """Every metric of ``rendered``, as a dict of floats in the order of :data:`METRICS`."""
+        return dict(self.describe_steps(rendered))
+
+
+def describe_steps(original, rendered, *, workers: int | None = None) -> Iterator[tuple[str, float]]:
+    """Yield ``(name, value)`` for each metric of a rendering of ``original``, one at a time.
+
+    The same values, in the same order, as :func:`describe`; a caller that
+    stops iterating (or closes the generator) between two metrics skips the
+    work of the others. The maps of ``original`` are kept, by content, for
+    the next renderings of it (see :class:`Comparison`).
+    """
+    return _comparison_of(original, workers).describe_steps(rendered)
+
+
+def describe(original, rendered, *, workers: int | None = None) -> dict[str, float]:
     """Every metric of a rendering of ``original``, as a dict of floats."""
-    return {
-        "texture_added": texture_added(original, rendered),
-        "labyrinth_cover": labyrinth_cover(rendered),
-        "wall_width": wall_width(rendered),
-        "orientation_coherence": orientation_coherence(rendered),
-        "contour_alignment": contour_alignment(original, rendered),
-        "edge_enhancement": edge_enhancement(original, rendered),
-    }
+    return dict(describe_steps(original, rendered, workers=workers))
+
+
+def _comparison_of(original, workers) -> Comparison:
+    """The :class:`Comparison` of ``original``, reused while its content is the same."""
+    array = _plane(original, "original")
+    key = ("comparison", workers, *_ContentCache.key(array))
+    return _ORIGINALS.get(key, lambda: Comparison(array, workers=workers))
