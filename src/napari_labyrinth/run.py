@@ -135,7 +135,10 @@ class PassMetrics:
     def __init__(self, plan: RenderPlan, data: np.ndarray) -> None:
         self.rgb = plan.rgb
         self.index = () if plan.source_index is not None else tuple(plan.visible_index)
-        self.comparison = metrics.Comparison(_grey(data[self.index], self.rgb))
+        try:
+            self.comparison = metrics.Comparison(_grey(data[self.index], self.rgb))
+        except ValueError:  # a plane too small for the metrics' windows: rows of NaN
+            self.comparison = None
         colour = plan.arguments.get("colour")
         self.planes = visible_planes(data.shape, self.index, self.rgb, colour)
         self.waiting: dict[int, set[int]] = {}
@@ -154,13 +157,12 @@ class PassMetrics:
         """Measure pass ``pass_number`` of ``stack``; raise :class:`Cancelled` between metrics."""
         rendered = np.asarray(stack[(pass_number,) + self.index])
         row: dict[str, float] = {"pass": pass_number}
-        try:
+        row.update({key: math.nan for key, _, function in METRIC_ROWS if function})
+        if self.comparison is not None:
             for name, value in self.comparison.describe_steps(_grey(rendered, self.rgb)):
                 if should_stop():
                     raise Cancelled
                 row[name] = value
-        except ValueError:  # e.g. a plane too small for the metrics' windows
-            row.update({key: math.nan for key, _, function in METRIC_ROWS if function})
         changed = rendered != self.previous
         row["changed"] = 100.0 * float((changed.any(axis=-1) if self.rgb else changed).mean())
         self.rows.append(row)
