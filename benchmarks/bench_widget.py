@@ -35,6 +35,14 @@ def _wait(condition, timeout: float = 300.0) -> None:
         _events(0.001)
 
 
+def _clear(viewer) -> None:
+    """Remove every layer, one at a time with the events in between (removing several at
+    once while a repaint is pending crashes vispy under Xvfb's software OpenGL)."""
+    for layer in list(viewer.layers):
+        viewer.layers.remove(layer)
+        _events(0.05)
+
+
 class GapMeter:
     """The longest interval between ticks of a 20 ms QTimer: how long the event loop stalled."""
 
@@ -75,8 +83,7 @@ def image(size: int, planes: int = 0, dtype=np.uint16) -> np.ndarray:
 
 def bench_preview(viewer, widget, size: int, repeats: int) -> float:
     """Seconds from a change of V to the updated preview layer, best of ``repeats``."""
-    for layer in list(viewer.layers):
-        viewer.layers.remove(layer)
+    _clear(viewer)
     viewer.add_image(image(size), name=f"{size}")
     widget.preview_toggle.value = True
     _wait(lambda: widget.preview.layer is not None and not widget.preview.busy)
@@ -117,8 +124,7 @@ def _timed_run(widget) -> tuple[float, float, float]:
 
 def bench_stack(viewer, widget, size: int, repeats: int) -> tuple[float, float, float, float]:
     """Best total of a 4-pass stack with metrics, time to cancel, longest gap, layer add."""
-    for layer in list(viewer.layers):
-        viewer.layers.remove(layer)
+    _clear(viewer)
     viewer.add_image(image(size), name=f"{size}")
     widget.mode.value = "stack"
     widget.measure.value = True
@@ -146,8 +152,7 @@ def bench_stack(viewer, widget, size: int, repeats: int) -> tuple[float, float, 
 
 def bench_planes(viewer, widget, size: int, planes: int) -> tuple[float, float, float]:
     """Time, longest event-loop gap while rendering, and layer add of a ``planes``-plane run."""
-    for layer in list(viewer.layers):
-        viewer.layers.remove(layer)
+    _clear(viewer)
     viewer.add_image(image(size, planes), name="movie")
     widget.mode.value = "single"
     widget.fields["passes"].value = 4

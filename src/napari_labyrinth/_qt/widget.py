@@ -179,13 +179,13 @@ class LabyrinthWidget(QWidget):
         )
         self.cancel_button.enabled = False
         self.measure = CheckBox(
-            text="measure every pass",
+            text="metrics",
             value=True,
             tooltip="Stack mode: measure each pass on the plane on screen as it renders "
             "(table and plot below); untick for the fastest stack.",
         )
         self.replace = CheckBox(
-            text="replace the previous result",
+            text="replace last",
             value=True,
             tooltip="A run of the same input and mode replaces the layer of the last one "
             "instead of adding another.",
