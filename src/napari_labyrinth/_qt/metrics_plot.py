@@ -58,7 +58,8 @@ class MetricsPlot(QWidget):
             finite = [v for v in values if math.isfinite(v)]
             if not finite:
                 continue
-            low, high = min(0.0, *finite), max(finite) * 1.1  # headroom above the top point
+            low, high = min(0.0, *finite), max(finite)
+            high += 0.1 * (high - low)  # headroom above the highest point
             scale = (high - low) or 1.0
             points = [
                 QPointF(
