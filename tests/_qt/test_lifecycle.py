@@ -119,3 +119,21 @@ def test_the_metrics_of_a_stack_clear_when_the_mode_or_the_input_changes(qtbot, 
     run(qtbot, widget)
     widget.image_layer.value = viewer.layers["other"]
     assert widget.metrics_table.columnCount() == 0
+
+
+def test_closing_the_viewer_cancels_the_run(qtbot, make_napari_viewer):
+    viewer = make_napari_viewer(show=True)
+    _, widget = viewer.window.add_plugin_dock_widget("napari-labyrinth", "Labyrinthine tiling")
+    _, worker = _start_long_run(viewer, widget)
+    closed = []
+
+    def close_the_viewer(_):
+        if not closed:
+            closed.append(True)
+            viewer.close()
+
+    worker.yielded.connect(close_the_viewer)
+    with qtbot.waitSignal(worker.finished, timeout=RUN_TIMEOUT_MS):
+        worker.start()
+    assert widget._closed
+    qtbot.waitUntil(_no_rendering_thread, timeout=RUN_TIMEOUT_MS)

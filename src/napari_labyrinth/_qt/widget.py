@@ -363,7 +363,7 @@ class LabyrinthWidget(QWidget):
         worker = render_worker(plan)
         worker.returned.connect(self._on_returned)
         worker.finished.connect(self._on_finished)
-        worker.yielded.connect(self.progress_bar.setValue)
+        worker.yielded.connect(self._on_progress)
         self.worker = worker
         self._plan = plan
         self._input = self.image_layer.value
@@ -416,11 +416,17 @@ class LabyrinthWidget(QWidget):
             self._shown_plane = tuple(plan.visible_index)
         self.status.value = f"Added {plan.description} ({outcome.seconds:.1f} s)"
 
+    def _on_progress(self, step: int) -> None:
+        if not self._closed:  # after close the Qt side of the widget may be gone
+            self.progress_bar.setValue(step)
+
     def _on_finished(self) -> None:
         cancelled = self._plan is not None and not self._outcome_received
         self.worker = None
         self._plan = None  # holds the input data: let it go
         self._input = None
+        if self._closed:
+            return
         self.run_button.enabled = True
         self.cancel_button.enabled = False
         self.progress_bar.setVisible(False)
