@@ -168,30 +168,40 @@ class _Maps:
 
     def fine(self) -> tuple[np.ndarray, float]:
         """``h = g - G_1 * g`` and ``sum(h**2)``."""
+        fine, _, total, _ = self._fine()
+        return fine, total
+
+    def _fine(self) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """``h``, ``h`` in float32, ``sum(h**2)`` and ``max(h**2)``."""
 
         def compute():
             fine = np.empty_like(self.plane)
-            totals = self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine)
-            return _frozen(fine), math.fsum(totals)
+            fine32 = np.empty(self.plane.shape, dtype=np.float32)
+            results = self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine, fine32)
+            total = math.fsum(r[0] for r in results)
+            largest = max(r[1] for r in results)
+            return _frozen(fine), _frozen(fine32), total, largest
 
         return self._get("fine", compute)
 
-    def _smooth(self, mode, source, energy, flags) -> list:
+    def _smooth(self, mode, energy, flags) -> list:
         kernels = _kernels()
+        fine, fine32, _, largest = self._fine()
         return self._bands(
-            kernels.smooth_band, source, self.plane, mode, _weights(WINDOW_SIGMA),
-            ENERGY_FLOOR**2, ALONG_THRESHOLD, ALTERNATION_THRESHOLD, energy, flags,
+            kernels.smooth_band, fine, fine32, self.plane, mode, _weights(WINDOW_SIGMA),
+            _weights(WINDOW_SIGMA, np.float32), ENERGY_FLOOR**2, ALONG_THRESHOLD,
+            ALTERNATION_THRESHOLD, largest, energy, flags,
         )  # fmt: skip
 
     def walls(self) -> tuple[np.ndarray, np.ndarray, float]:
         """The wall map, the energy ``G_2 * h**2`` and the energy's sum."""
 
         def compute():
-            fine, _ = self.fine()
-            energy = np.empty_like(fine)
-            walls = np.empty(fine.shape, dtype=bool)
-            results = self._smooth(_kernels().MODE_WALLS, fine, energy, walls)
-            return _frozen(walls), _frozen(energy), math.fsum(total for _, total in results)
+            energy = np.empty_like(self.plane)
+            walls = np.empty(self.plane.shape, dtype=bool)
+            results = self._smooth(_kernels().MODE_WALLS, energy, walls)
+            self.exact_decisions = sum(r[2] for r in results)
+            return _frozen(walls), _frozen(energy), math.fsum(r[1] for r in results)
 
         return self._get("walls", compute)
 
@@ -203,10 +213,9 @@ class _Maps:
                 return energy, total
 
         def compute():
-            fine, _ = self.fine()
-            energy = np.empty_like(fine)
-            results = self._smooth(_kernels().MODE_ENERGY, fine, energy, np.empty((1, 1), bool))
-            return _frozen(energy), math.fsum(total for _, total in results)
+            energy = np.empty_like(self.plane)
+            results = self._smooth(_kernels().MODE_ENERGY, energy, np.empty((1, 1), bool))
+            return _frozen(energy), math.fsum(r[1] for r in results)
 
         return self._get("energy", compute)
 
@@ -219,15 +228,18 @@ class _Maps:
 
         def compute():
             positive = np.empty(self.plane.shape, dtype=bool)
-            self._smooth(_kernels().MODE_LOCAL_MEAN, self.plane, np.empty((1, 1)), positive)
+            self._smooth(_kernels().MODE_LOCAL_MEAN, np.empty((1, 1)), positive)
             return _frozen(positive)
 
         return self._get("above_local_mean", compute)
 
     def wall_orientation(self) -> tuple[np.ndarray, ...]:
-        """Strength, coherence * strength, cos and sin of twice the angle, of ``h``."""
+        """Strength, coherence * strength, cos and sin of twice the angle, of ``h``, on the walls."""
         return self._get(
-            "wall_orientation", lambda: _derived_orientation(self.fine()[0], WINDOW_SIGMA, self.workers)
+            "wall_orientation",
+            lambda: _derived_orientation(
+                self.fine()[0], WINDOW_SIGMA, self.workers, walls=self.walls()[0]
+            ),
         )
 
     def contours(self, sigma: float) -> tuple[np.ndarray, ...]:
@@ -275,18 +287,24 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     return array
 
 
-def _orientation_maps(plane: np.ndarray, sigma: float, mode: int, workers, count: int):
+def _orientation_maps(plane: np.ndarray, sigma: float, mode: int, workers, count: int, walls=None):
+    """Structure-tensor maps of ``plane`` (see ``_metrics_kernels.orientation_band``).
+
+    With ``walls``, only the pixels of the walls are sure to be computed.
+    """
     kernels = _kernels()
     outputs = [np.empty(plane.shape, dtype=np.float32) for _ in range(4)]
+    use_walls = walls is not None
+    walls = walls if use_walls else np.zeros((1, 1), dtype=bool)
     _in_bands(
         kernels.orientation_band, plane.shape[0], workers, plane,
-        _weights(2 * sigma, np.float32), mode, *outputs,
+        _weights(2 * sigma, np.float32), mode, walls, use_walls, *outputs,
     )  # fmt: skip
     return tuple(_frozen(output) for output in outputs[:count])
 
 
-def _derived_orientation(plane: np.ndarray, sigma: float, workers) -> tuple[np.ndarray, ...]:
-    return _orientation_maps(plane, sigma, _kernels().TENSOR_DERIVED, workers, 4)
+def _derived_orientation(plane: np.ndarray, sigma: float, workers, walls=None):
+    return _orientation_maps(plane, sigma, _kernels().TENSOR_DERIVED, workers, 4, walls)
 
 
 # --- the maps of renderings, shared between the single metrics ---------------------------
