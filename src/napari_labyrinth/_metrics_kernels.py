@@ -150,18 +150,16 @@ def _extend(line, radius, ext):
 
 
 @njit(cache=True, nogil=True)
-def fine_scale_band(plane, weights, fine, fine32, y0, y1):
+def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
     """``fine = plane - G * plane`` on rows ``[y0, y1)``, and its float32 copy ``fine32``.
 
-    Returns the sum and the largest value of ``fine**2`` on the band.
+    ``sums[y]`` gets the sum and the largest value of ``fine[y]**2``.
     """
     width = plane.shape[1]
     radius = weights.shape[0] - 1
     column = np.empty(width)
     ext = np.empty(width + 2 * radius)
     smooth = np.empty(width)
-    total = 0.0
-    largest = 0.0
     lower = np.empty(radius + 1, dtype=np.int64)
     upper = np.empty(radius + 1, dtype=np.int64)
     for y in range(y0, y1):
@@ -174,6 +172,8 @@ def fine_scale_band(plane, weights, fine, fine32, y0, y1):
         row = plane[y]
         out = fine[y]
         out32 = fine32[y]
+        total = 0.0
+        largest = 0.0
         for x in range(width):
             value = row[x] - smooth[x]
             out[x] = value
@@ -181,7 +181,8 @@ def fine_scale_band(plane, weights, fine, fine32, y0, y1):
             square = value * value
             total += square
             largest = max(largest, square)
-    return total, largest
+        sums[y, 0] = total
+        sums[y, 1] = largest
 
 
 @njit(cache=True, nogil=True)
@@ -288,6 +289,7 @@ def smooth_band(
     largest_square,
     energy,
     flags,
+    sums,
     y0,
     y1,
 ):
@@ -295,8 +297,8 @@ def smooth_band(
 
     ``MODE_WALLS``: ``energy = G * h**2`` and ``flags`` = the wall map;
     ``MODE_ENERGY``: ``energy`` only; ``MODE_LOCAL_MEAN``: ``flags = plane > G * plane``.
-    Returns the count of True flags, the sum of the energy and the number of
-    pixels whose wall decision was recomputed exactly.
+    Returns the count of True flags and the number of pixels whose wall
+    decision was recomputed exactly; ``sums[y, 0]`` gets the sum of ``energy[y]``.
 
     The energy and the local mean are scipy's Gaussian (``reflect``, axis 0
     then axis 1, the same operations in the same order: the same floats).
@@ -320,7 +322,6 @@ def smooth_band(
     ext = np.empty(span)
     result = np.empty((Y_BLOCK, X_TILE))
     count = 0
-    energy_total = 0.0
     exact = 0
     half = 0.5
     if mode == MODE_LOCAL_MEAN:
@@ -337,7 +338,7 @@ def smooth_band(
                         above_mean = source[i] > mean[i]
                         out[i] = above_mean
                         count += above_mean
-        return count, energy_total, exact
+        return count, exact
     # the energy, on the band and (for the bound) EDGE // 3 rows on each side
     reach = 4  # the longest lag
     e0 = max(0, y0 - reach) if mode == MODE_WALLS else y0
@@ -353,11 +354,13 @@ def smooth_band(
     for y in range(y0, y1):
         row = band_energy[y - e0]
         out_energy = energy[y]
+        total = 0.0
         for x in range(width):
             out_energy[x] = row[x]
-            energy_total += row[x]
+            total += row[x]
+        sums[y, 0] = total
     if mode == MODE_ENERGY:
-        return count, energy_total, exact
+        return count, exact
     ring32 = np.empty((2 * radius + 1, span), dtype=np.float32)
     column32 = np.empty(span, dtype=np.float32)
     ext32 = np.empty(span, dtype=np.float32)
@@ -396,7 +399,7 @@ def smooth_band(
                             exact += 1
                     out[i] = wall
                     count += wall
-    return count, energy_total, exact
+    return count, exact
 
 
 @njit(cache=True, nogil=True)
@@ -568,8 +571,9 @@ def _exact_wall(fine, weights, y, x, e, along_threshold, alternation_threshold):
 TENSOR_COMPONENTS = 0  # jrr, jrc, jcc
 TENSOR_DERIVED = 1  # strength, coherence * strength, cos(2 angle), sin(2 angle)
 
-#: Bytes of :func:`orientation_band`'s ring of smoothed rows per column tile (fits in L2).
-TENSOR_RING_BYTES = 64 * 1024 * 1024
+#: Bytes of :func:`orientation_band`'s ring of smoothed rows per column tile when only
+#: the walls' pixels are asked for: narrow tiles skip more rows without walls.
+TENSOR_RING_BYTES = 256 * 1024
 
 
 @njit(cache=True, nogil=True)
@@ -846,7 +850,9 @@ def orientation_band(plane, weights, mode, walls, use_walls, out0, out1, out2, o
     """
     width = plane.shape[1]
     radius = weights.shape[0] - 1
-    tile = max(256, TENSOR_RING_BYTES // (3 * (2 * radius + 2) * 4))
+    tile = width  # whole rows are fastest when every pixel is asked for
+    if use_walls:
+        tile = max(256, TENSOR_RING_BYTES // (3 * (2 * radius + 2) * 4))
     count = max(1, (width + tile - 1) // tile)
     for k in range(count):
         x0 = (k * width) // count
@@ -858,14 +864,14 @@ def orientation_band(plane, weights, mode, walls, use_walls, out0, out1, out2, o
 
 
 @njit(cache=True, nogil=True)
-def sobel_band(plane, out, y0, y1):
-    """``skimage.filters.sobel`` (``reflect``) on rows ``[y0, y1)``; returns min, max and sum."""
+def sobel_band(plane, out, sums, y0, y1):
+    """``skimage.filters.sobel`` (``reflect``) on rows ``[y0, y1)``; ``sums[y]``: min, max, sum."""
     height, width = plane.shape
-    low = np.inf
-    high = -np.inf
-    total = 0.0
     root2 = np.sqrt(2.0)
     for y in range(y0, y1):
+        low = np.inf
+        high = -np.inf
+        total = 0.0
         up = plane[_reflect(y - 1, height)]
         mid = plane[y]
         down = plane[_reflect(y + 1, height)]
@@ -883,34 +889,37 @@ def sobel_band(plane, out, y0, y1):
             low = min(low, value)
             high = max(high, value)
             total += value
-    return low, high, total
+        sums[y, 0] = low
+        sums[y, 1] = high
+        sums[y, 2] = total
 
 
 @njit(cache=True, nogil=True)
-def centred_sums(first, second, first_mean, second_mean, y0, y1):
-    """Sums of ``(a - ma)**2`` and of ``(b - mb)**2`` over rows ``[y0, y1)``."""
+def centred_sums(first, second, first_mean, second_mean, sums, y0, y1):
+    """``sums[y]``: the sums of ``(a - ma)**2`` and of ``(b - mb)**2`` over row y."""
     width = first.shape[1]
-    first_total = 0.0
-    second_total = 0.0
     for y in range(y0, y1):
+        first_total = 0.0
+        second_total = 0.0
         for x in range(width):
             a = first[y, x] - first_mean
             b = second[y, x] - second_mean
             first_total += a * a
             second_total += b * b
-    return first_total, second_total
+        sums[y, 0] = first_total
+        sums[y, 1] = second_total
 
 
 @njit(cache=True, nogil=True)
-def added_edge_sums(after, before, edges, added_mean, edges_mean, y0, y1):
-    """For ``a = after - before`` and ``s = edges`` on rows ``[y0, y1)``:
+def added_edge_sums(after, before, edges, added_mean, edges_mean, sums, y0, y1):
+    """For ``a = after - before`` and ``s = edges``, ``sums[y]`` gets, over row y:
     ``sum((a - ma)(s - ms))``, ``sum((a - ma)**2)``, min(a), max(a)."""
     width = after.shape[1]
-    cross = 0.0
-    spread = 0.0
-    low = np.inf
-    high = -np.inf
     for y in range(y0, y1):
+        cross = 0.0
+        spread = 0.0
+        low = np.inf
+        high = -np.inf
         for x in range(width):
             added = after[y, x] - before[y, x]
             a = added - added_mean
@@ -918,7 +927,10 @@ def added_edge_sums(after, before, edges, added_mean, edges_mean, y0, y1):
             spread += a * a
             low = min(low, added)
             high = max(high, added)
-    return cross, spread, low, high
+        sums[y, 0] = cross
+        sums[y, 1] = spread
+        sums[y, 2] = low
+        sums[y, 3] = high
 
 
 @njit(cache=True, nogil=True)
@@ -949,34 +961,39 @@ def wall_pair_counts(walls, positive, y0, y1):
 
 
 @njit(cache=True, nogil=True)
-def wall_weighted_sums(walls, strength, coherent, y0, y1):
-    """``sum(coherent * walls)`` and ``sum(strength * walls)`` over rows ``[y0, y1)``."""
+def wall_weighted_sums(walls, strength, coherent, sums, y0, y1):
+    """``sums[y]``: ``sum(coherent * walls)`` and ``sum(strength * walls)`` over row y."""
     width = walls.shape[1]
-    numerator = 0.0
-    denominator = 0.0
     for y in range(y0, y1):
+        numerator = 0.0
+        denominator = 0.0
         for x in range(width):
             if walls[y, x]:
                 numerator += coherent[y, x]
                 denominator += strength[y, x]
-    return numerator, denominator
+        sums[y, 0] = numerator
+        sums[y, 1] = denominator
 
 
 @njit(cache=True, nogil=True)
-def alignment_sums(walls, wall_coherent, wall_cos, wall_sin, contour_coherent, contour_cos, contour_sin, y0, y1):
-    """``sum(cos**2(angle difference) * weight)`` and ``sum(weight)`` on the walls,
-    weight = wall coherence * strength * contour coherence * strength.
+def alignment_sums(
+    walls, wall_coherent, wall_cos, wall_sin, contour_coherent, contour_cos, contour_sin, sums,
+    y0, y1,
+):  # fmt: skip
+    """``sums[y]``: ``sum(cos**2(angle difference) * weight)`` and ``sum(weight)`` on the
+    walls of row y, weight = wall coherence * strength * contour coherence * strength.
 
     ``cos**2(a - b) = (1 + cos 2a cos 2b + sin 2a sin 2b) / 2``.
     """
     width = walls.shape[1]
-    numerator = 0.0
-    denominator = 0.0
     for y in range(y0, y1):
+        numerator = 0.0
+        denominator = 0.0
         for x in range(width):
             if walls[y, x]:
                 weight = np.float64(wall_coherent[y, x]) * np.float64(contour_coherent[y, x])
                 cosine = np.float64(wall_cos[y, x]) * contour_cos[y, x] + np.float64(wall_sin[y, x]) * contour_sin[y, x]
                 numerator += 0.5 * (1.0 + cosine) * weight
                 denominator += weight
-    return numerator, denominator
+        sums[y, 0] = numerator
+        sums[y, 1] = denominator

@@ -127,7 +127,7 @@ class _ContentCache:
     @staticmethod
     def key(array: np.ndarray) -> tuple:
         data = np.ascontiguousarray(array)
-        digest = hashlib.sha256(memoryview(data).cast("B")).digest()
+        digest = hashlib.sha256(data.view(np.uint8)).digest()  # releases the GIL
         return (data.dtype.str, data.shape, digest)
 
     def get(self, key, make: Callable[[], Any]):
@@ -177,21 +177,27 @@ class _Maps:
         def compute():
             fine = np.empty_like(self.plane)
             fine32 = np.empty(self.plane.shape, dtype=np.float32)
-            results = self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine, fine32)
-            total = math.fsum(r[0] for r in results)
-            largest = max(r[1] for r in results)
-            return _frozen(fine), _frozen(fine32), total, largest
+            sums = self._row_sums(2)
+            self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine, fine32, sums)
+            return _frozen(fine), _frozen(fine32), math.fsum(sums[:, 0]), float(sums[:, 1].max())
 
         return self._get("fine", compute)
 
-    def _smooth(self, mode, energy, flags) -> list:
+    def _row_sums(self, count: int) -> np.ndarray:
+        """Per-row partial sums that kernels fill: the totals do not depend on the bands."""
+        return np.empty((self.plane.shape[0], count))
+
+    def _smooth(self, mode, energy, flags) -> tuple[list, float]:
+        """The kernel's results per band and the sum of the energy."""
         kernels = _kernels()
         fine, fine32, _, largest = self._fine()
-        return self._bands(
+        sums = self._row_sums(1)
+        results = self._bands(
             kernels.smooth_band, fine, fine32, self.plane, mode, _weights(WINDOW_SIGMA),
             _weights(WINDOW_SIGMA, np.float32), ENERGY_FLOOR**2, ALONG_THRESHOLD,
-            ALTERNATION_THRESHOLD, largest, energy, flags,
+            ALTERNATION_THRESHOLD, largest, energy, flags, sums,
         )  # fmt: skip
+        return results, (math.fsum(sums[:, 0]) if mode != kernels.MODE_LOCAL_MEAN else math.nan)
 
     def walls(self) -> tuple[np.ndarray, np.ndarray, float]:
         """The wall map, the energy ``G_2 * h**2`` and the energy's sum."""
@@ -199,9 +205,9 @@ class _Maps:
         def compute():
             energy = np.empty_like(self.plane)
             walls = np.empty(self.plane.shape, dtype=bool)
-            results = self._smooth(_kernels().MODE_WALLS, energy, walls)
-            self.exact_decisions = sum(r[2] for r in results)
-            return _frozen(walls), _frozen(energy), math.fsum(r[1] for r in results)
+            results, total = self._smooth(_kernels().MODE_WALLS, energy, walls)
+            self.exact_decisions = sum(r[1] for r in results)
+            return _frozen(walls), _frozen(energy), total
 
         return self._get("walls", compute)
 
@@ -214,8 +220,8 @@ class _Maps:
 
         def compute():
             energy = np.empty_like(self.plane)
-            results = self._smooth(_kernels().MODE_ENERGY, energy, np.empty((1, 1), bool))
-            return _frozen(energy), math.fsum(r[1] for r in results)
+            _, total = self._smooth(_kernels().MODE_ENERGY, energy, np.empty((1, 1), bool))
+            return _frozen(energy), total
 
         return self._get("energy", compute)
 
@@ -254,11 +260,12 @@ class _Maps:
         def compute():
             kernels = _kernels()
             edges = np.empty_like(self.plane)
-            results = self._bands(kernels.sobel_band, self.plane, edges)
-            mean = math.fsum(r[2] for r in results) / edges.size
-            spread = math.fsum(r[0] for r in self._bands(kernels.centred_sums, edges, edges, mean, mean))
-            constant = min(r[0] for r in results) == max(r[1] for r in results)
-            return _frozen(edges), mean, spread, constant
+            sums = self._row_sums(3)
+            self._bands(kernels.sobel_band, self.plane, edges, sums)
+            mean = math.fsum(sums[:, 2]) / edges.size
+            constant = bool(sums[:, 0].min() == sums[:, 1].max())
+            self._bands(kernels.centred_sums, edges, edges, mean, mean, sums)
+            return _frozen(edges), mean, math.fsum(sums[:, 0]), constant
 
         return self._get("edges", compute)
 
@@ -309,10 +316,11 @@ def _derived_orientation(plane: np.ndarray, sigma: float, workers, walls=None):
 
 # --- the maps of renderings, shared between the single metrics ---------------------------
 
-#: Maps of the last few planes given to the single metrics, by content.
-_RENDERED = _ContentCache(4)
-#: Comparisons of the last few originals given to :func:`describe`, by content.
-_ORIGINALS = _ContentCache(2)
+#: Maps of the last plane given to the single metrics, by content (a plane's maps take
+#: about 45 bytes a pixel: one entry).
+_RENDERED = _ContentCache(1)
+#: The :class:`Comparison` of the last original given to :func:`describe`, by content.
+_ORIGINALS = _ContentCache(1)
 
 
 def _maps_of(image, name: str = "image") -> _Maps:
@@ -451,9 +459,10 @@ def _orientation_coherence(maps: _Maps) -> float:
         return math.nan
     walls, _, _ = maps.walls()
     strength, coherent, _, _ = maps.wall_orientation()
-    sums = maps._bands(_kernels().wall_weighted_sums, walls, strength, coherent)
-    numerator = math.fsum(s[0] for s in sums)
-    denominator = math.fsum(s[1] for s in sums)
+    sums = maps._row_sums(2)
+    maps._bands(_kernels().wall_weighted_sums, walls, strength, coherent, sums)
+    numerator = math.fsum(sums[:, 0])
+    denominator = math.fsum(sums[:, 1])
     return numerator / denominator if denominator > 0 else math.nan
 
 
@@ -482,12 +491,13 @@ def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTO
     walls, _, _ = after.walls()
     _, wall_coherent, wall_cos, wall_sin = after.wall_orientation()
     _, contour_coherent, contour_cos, contour_sin = before.contours(contour_sigma)
-    sums = after._bands(
+    sums = after._row_sums(2)
+    after._bands(
         _kernels().alignment_sums, walls, wall_coherent, wall_cos, wall_sin,
-        contour_coherent, contour_cos, contour_sin,
+        contour_coherent, contour_cos, contour_sin, sums,
     )  # fmt: skip
-    numerator = math.fsum(s[0] for s in sums)
-    total = math.fsum(s[1] for s in sums)
+    numerator = math.fsum(sums[:, 0])
+    total = math.fsum(sums[:, 1])
     if not total > 0:
         return math.nan
     return numerator / total
@@ -514,12 +524,14 @@ def _edge_enhancement(before: _Maps, after: _Maps) -> float:
     energy_before, total_before = before.energy()
     edges, edges_mean, edges_spread, edges_constant = before.edges()
     added_mean = (total_after - total_before) / edges.size
-    sums = after._bands(
-        _kernels().added_edge_sums, energy_after, energy_before, edges, added_mean, edges_mean
-    )
-    cross = math.fsum(s[0] for s in sums)
-    spread = math.fsum(s[1] for s in sums)
-    added_constant = min(s[2] for s in sums) == max(s[3] for s in sums)
+    sums = after._row_sums(4)
+    after._bands(
+        _kernels().added_edge_sums, energy_after, energy_before, edges, added_mean, edges_mean,
+        sums,
+    )  # fmt: skip
+    cross = math.fsum(sums[:, 0])
+    spread = math.fsum(sums[:, 1])
+    added_constant = bool(sums[:, 2].min() == sums[:, 3].max())
     if added_constant or edges_constant:
         return 0.0
     correlation = cross / math.sqrt(spread * edges_spread)
