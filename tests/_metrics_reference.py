@@ -1,4 +1,11 @@
-"""Numbers that describe a labyrinthine tiling and the edges it enhances.
+"""The previous implementation of ``napari_labyrinth.metrics``, kept as the tests' oracle.
+
+Unchanged but for this paragraph: scipy and scikit-image filters over
+float64 planes, one metric at a time. ``tests/test_metrics_reference.py``
+checks the current implementation against it; ``benchmarks/bench_metrics.py``
+times both.
+
+Numbers that describe a labyrinthine tiling and the edges it enhances.
 
 Every metric works on 2-D grayscale planes of any real dtype and is
 deterministic. Images are compared on the same footing by converting them to

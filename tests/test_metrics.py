@@ -1,5 +1,6 @@
 """Each metric separates a synthetic labyrinth from noise, blur and the unchanged image."""
 
+import inspect
 import math
 
 import numpy as np
@@ -137,3 +138,125 @@ def test_metrics_accept_integer_images_and_reject_bad_ones():
         metrics.labyrinth_cover(np.zeros((8, 8), complex))
     with pytest.raises(ValueError, match="differ in shape"):
         metrics.edge_enhancement(np.zeros((8, 8)), np.zeros((9, 8)))
+
+
+# --- describe_steps, Comparison, threads ----------------------------------------------------
+
+
+def test_describe_steps_yields_every_metric_in_the_order_of_describe(cases):
+    original, rendered = cases["original"], cases["labyrinth"]
+    steps = metrics.describe_steps(original, rendered)
+    assert inspect.isgenerator(steps)
+    pairs = list(steps)
+    assert [name for name, _ in pairs] == list(metrics.METRICS)
+    assert dict(pairs) == metrics.describe(original, rendered)
+    assert list(metrics.describe(original, rendered)) == list(metrics.METRICS)
+
+
+def _count_calls(monkeypatch, name):
+    from napari_labyrinth import _metrics_kernels
+
+    calls = []
+    kernel = getattr(_metrics_kernels, name)
+
+    def counting(*arguments):
+        calls.append(arguments)
+        return kernel(*arguments)
+
+    monkeypatch.setattr(_metrics_kernels, name, counting)
+    return calls
+
+
+def test_stopping_between_metrics_skips_the_work_of_the_others(cases, monkeypatch):
+    tensors = _count_calls(monkeypatch, "orientation_band")
+    steps = metrics.Comparison(cases["original"]).describe_steps(cases["labyrinth"])
+    assert next(steps)[0] == "texture_added"
+    assert next(steps)[0] == "labyrinth_cover"
+    steps.close()
+    assert tensors == []  # neither the walls' nor the contours' structure tensor
+    with pytest.raises(StopIteration):
+        next(steps)
+
+
+def test_a_comparison_computes_the_originals_maps_once(cases, monkeypatch):
+    tensors = _count_calls(monkeypatch, "orientation_band")  # one call per band of rows
+    comparison = metrics.Comparison(cases["original"], workers=1)
+    renderings = [cases["labyrinth"], cases["labyrinth"][:, ::-1].copy(), cases["noise"]]
+    rows = [comparison.describe(rendered) for rendered in renderings]
+    # contours of the original once; the walls of the two labyrinths (noise has none)
+    assert len(tensors) == 3
+    for rendered, row in zip(renderings, rows):
+        assert row == metrics.describe(cases["original"], rendered)
+    assert comparison.shape == cases["original"].shape
+    with pytest.raises(ValueError, match="differ in shape"):
+        comparison.describe(np.zeros((9, 8)))
+
+
+def test_a_comparison_keeps_its_own_copy_of_the_original(cases):
+    original = cases["original"].copy()
+    comparison = metrics.Comparison(original)
+    expected = metrics.describe(cases["original"], cases["labyrinth"])
+    original[:] = 0
+    assert comparison.describe(cases["labyrinth"]) == expected
+
+
+def test_describe_reuses_an_original_by_content_not_by_identity(cases, monkeypatch):
+    original, rendered = cases["original"], cases["labyrinth"]
+    metrics.describe(original, rendered, workers=1)
+    tensors = _count_calls(monkeypatch, "orientation_band")  # one call per band of rows
+    metrics.describe(original.copy(), rendered, workers=1)  # same content: contours reused
+    assert len(tensors) == 1  # the walls' tensor only
+    changed = original.copy()
+    changed[0, 0] += 1
+    metrics.describe(changed, rendered, workers=1)
+    assert len(tensors) == 3  # a new original: its contours as well
+
+
+def test_workers_do_not_change_the_results(cases):
+    original, rendered = cases["original"], cases["labyrinth"]
+    expected = metrics.describe(original, rendered, workers=1)
+    for workers in (2, 3, 8):
+        assert metrics.Comparison(original, workers=workers).describe(rendered) == expected
+
+
+def test_metrics_run_on_threads_beside_the_renderer(cases):
+    """Several threads describe passes while the numba renderer runs on others."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from napari_labyrinth import labyrinth
+
+    original = cases["original"]
+    passes = [labyrinth(original, passes=k, seed=k) for k in (1, 2, 3)]
+    expected = [metrics.describe(original, rendered) for rendered in passes]
+    comparison = metrics.Comparison(original)
+    with ThreadPoolExecutor(6) as pool:
+        renders = [pool.submit(labyrinth, original, passes=2, seed=k) for k in range(2)]
+        rows = [pool.submit(comparison.describe, rendered) for rendered in passes * 3]
+        singles = [pool.submit(metrics.wall_width, rendered) for rendered in passes]
+        assert [row.result() for row in rows] == expected * 3
+        assert [w.result() for w in singles] == [row["wall_width"] for row in expected]
+        for render in renders:
+            render.result()
+
+
+def test_the_kernels_release_the_gil():
+    from numba.core.registry import CPUDispatcher
+
+    from napari_labyrinth import _metrics_kernels
+
+    kernels = [
+        value
+        for value in vars(_metrics_kernels).values()
+        if isinstance(value, CPUDispatcher)
+    ]
+    assert len(kernels) > 10
+    for kernel in kernels:
+        assert kernel.targetoptions.get("nogil"), kernel.py_func.__name__
+
+
+def test_wall_map_is_shared_and_read_only(cases):
+    walls = metrics.wall_map(cases["labyrinth"])
+    assert walls.dtype == bool and not walls.flags.writeable
+    assert metrics.wall_map(cases["labyrinth"].copy()) is walls
+    fine = metrics.fine_scale(cases["labyrinth"])
+    assert fine.flags.writeable and fine.dtype == np.float64

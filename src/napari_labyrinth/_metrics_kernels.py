@@ -39,6 +39,8 @@ MODE_LOCAL_MEAN = 2  # the plane's Gaussian mean -> plane > mean
 #: Blocks of :func:`smooth_band`: a map's ring buffer stays in L1, a block's values in L2.
 X_TILE = 512
 Y_BLOCK = 128
+#: Rows of a block of the 12 float32 lag maps (they then fit in L2 together).
+LAG_BLOCK = 64
 
 
 def gaussian_weights(sigma: float, truncate: float = 4.0) -> np.ndarray:
@@ -148,14 +150,16 @@ def _extend(line, radius, ext):
 
 
 @njit(cache=True, nogil=True)
-def fine_scale_band(plane, weights, fine, y0, y1):
-    """``fine = plane - G * plane`` on rows ``[y0, y1)``; returns the sum of ``fine**2``."""
+def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
+    """``fine = plane - G * plane`` on rows ``[y0, y1)``, and its float32 copy ``fine32``.
+
+    ``sums[y]`` gets the sum and the largest value of ``fine[y]**2``.
+    """
     width = plane.shape[1]
     radius = weights.shape[0] - 1
     column = np.empty(width)
     ext = np.empty(width + 2 * radius)
     smooth = np.empty(width)
-    total = 0.0
     lower = np.empty(radius + 1, dtype=np.int64)
     upper = np.empty(radius + 1, dtype=np.int64)
     for y in range(y0, y1):
@@ -167,19 +171,27 @@ def fine_scale_band(plane, weights, fine, y0, y1):
         _gauss_line(ext, radius, weights, smooth)
         row = plane[y]
         out = fine[y]
+        out32 = fine32[y]
+        total = 0.0
+        largest = 0.0
         for x in range(width):
             value = row[x] - smooth[x]
             out[x] = value
-            total += value * value
-    return total
+            out32[x] = value
+            square = value * value
+            total += square
+            largest = max(largest, square)
+        sums[y, 0] = total
+        sums[y, 1] = largest
 
 
 @njit(cache=True, nogil=True)
-def _source_row(fine, plane, mode, dy, dx, row, s0, s1, out):
+def _source_row(fine, plane, mode, dy, dx, half, row, s0, s1, out):
     """Row ``row``, columns ``[s0, s1)``, of the map that the wall pass smooths.
 
     ``mode`` MODE_LOCAL_MEAN: the plane itself; ``dy == dx == 0``: ``h**2``;
-    otherwise ``0.5 * (h(p) h(p + d) + h(p - d) h(p))`` with the lags
+    otherwise ``half * (h(p) h(p + d) + h(p - d) h(p))`` (``half`` = 1/2 in
+    the arrays' precision) with the lags
     wrapping around the plane (``np.roll``), as the reference computes it.
     """
     height, width = fine.shape
@@ -200,7 +212,7 @@ def _source_row(fine, plane, mode, dy, dx, row, s0, s1, out):
     e1 = min(max(reach, s0), s1)
     e2 = max(min(width - reach, s1), e1)
     for x in range(s0, e1):
-        out[x - s0] = 0.5 * (
+        out[x - s0] = half * (
             centre[x] * ahead[(x + dx) % width] + behind[(x - dx) % width] * centre[x]
         )
     if e2 > e1:
@@ -209,15 +221,15 @@ def _source_row(fine, plane, mode, dy, dx, row, s0, s1, out):
         behind_middle = behind[e1 - dx : e2 - dx]
         out_middle = out[e1 - s0 : e2 - s0]
         for i in range(e2 - e1):
-            out_middle[i] = 0.5 * (middle[i] * ahead_middle[i] + behind_middle[i] * middle[i])
+            out_middle[i] = half * (middle[i] * ahead_middle[i] + behind_middle[i] * middle[i])
     for x in range(e2, s1):
-        out[x - s0] = 0.5 * (
+        out[x - s0] = half * (
             centre[x] * ahead[(x + dx) % width] + behind[(x - dx) % width] * centre[x]
         )
 
 
 @njit(cache=True, nogil=True)
-def _smooth_block(fine, plane, mode, dy, dx, weights, b0, b1, x0, x1, ring, column, ext, result):
+def _smooth_block(fine, plane, mode, dy, dx, half, weights, b0, b1, x0, x1, ring, column, ext, result):
     """``result[y - b0, x - x0]`` = Gaussian of one source map on rows ``[b0, b1)``, columns ``[x0, x1)``.
 
     The source rows (:func:`_source_row`) go through a ring buffer of
@@ -236,10 +248,10 @@ def _smooth_block(fine, plane, mode, dy, dx, weights, b0, b1, x0, x1, ring, colu
     lower = np.empty(radius + 1, dtype=np.int64)
     upper = np.empty(radius + 1, dtype=np.int64)
     for v in range(b0 - radius, b0 + radius):
-        _source_row(fine, plane, mode, dy, dx, _reflect(v, height), s0, s1, rows[v % ring_rows])
+        _source_row(fine, plane, mode, dy, dx, half, _reflect(v, height), s0, s1, rows[v % ring_rows])
     for y in range(b0, b1):
         v = y + radius
-        _source_row(fine, plane, mode, dy, dx, _reflect(v, height), s0, s1, rows[v % ring_rows])
+        _source_row(fine, plane, mode, dy, dx, half, _reflect(v, height), s0, s1, rows[v % ring_rows])
         for j in range(radius + 1):
             lower[j] = (y - j) % ring_rows
             upper[j] = (y + j) % ring_rows
@@ -256,110 +268,301 @@ def _smooth_block(fine, plane, mode, dy, dx, weights, b0, b1, x0, x1, ring, colu
             _gauss_line(ext[: tile + 2 * radius], radius, weights, out)
 
 
-@njit(cache=True, nogil=True)
+#: Bound on the float32 error of a smoothed lag product, in units of ``G * |product|``:
+#: the products and both 1-D passes accumulate about 28 roundings of 2**-24; twice that.
+FLOAT32_ERROR = 64 * 2.0**-24
+#: Pixels this close to an edge get a bound that holds there too (lags wrap, windows reflect).
+EDGE = 12
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def smooth_band(
     fine,
+    fine32,
     plane,
     mode,
     weights,
+    weights32,
     energy_floor2,
     along_threshold,
     alternation_threshold,
+    largest_square,
     energy,
     flags,
+    sums,
     y0,
     y1,
 ):
-    """The wall pass (or its parts) on rows ``[y0, y1)``; returns the count of True flags
-    and the sum of the energy.
+    """The wall pass (or one of its parts) on rows ``[y0, y1)``.
 
     ``MODE_WALLS``: ``energy = G * h**2`` and ``flags`` = the wall map;
     ``MODE_ENERGY``: ``energy`` only; ``MODE_LOCAL_MEAN``: ``flags = plane > G * plane``.
-    Every Gaussian is scipy's (``reflect``, axis 0 then axis 1, same order of
-    operations). The plane is cut into blocks of ``Y_BLOCK`` rows by
-    ``X_TILE`` columns, small enough for a map's ring buffer to stay in L1
-    and a block's maps in L2; each map of a block is smoothed in turn and
-    turned into flag bits, which the wall decision then reads.
+    Returns the count of True flags and the number of pixels whose wall
+    decision was recomputed exactly; ``sums[y, 0]`` gets the sum of ``energy[y]``.
+
+    The energy and the local mean are scipy's Gaussian (``reflect``, axis 0
+    then axis 1, the same operations in the same order: the same floats).
+    The 12 lag products are smoothed in float32 from ``fine32``; their
+    correlations ``C = S / E`` decide the wall map wherever they are
+    farther from the thresholds than the float32 error can reach, a bound
+    ``FLOAT32_ERROR * B / E`` with ``B >= G * |product|`` (:func:`_margins`); the other
+    pixels are recomputed exactly in float64 (:func:`_exact_smoothed`), as
+    the reference computes them. The wall map is therefore the reference's.
+
+    ``|h(p) h(p + d) + h(p - d) h(p)| / 2 <= h(p)**2 / 2 + h(p + d)**2 / 4 + h(p - d)**2 / 4``,
+    so ``G * |product| <= E(p) / 2 + E(p + d) / 4 + E(p - d) / 4`` away from
+    the edges (``EDGE`` pixels: there the shifted window is the window at
+    p + d), and ``<= E(p) / 2 + max(h**2) / 2`` everywhere.
     """
     height, width = fine.shape
     radius = weights.shape[0] - 1
-    n_maps = 13 if mode == MODE_WALLS else 1
-    ring = np.empty((2 * radius + 1, X_TILE + 2 * radius))
-    column = np.empty(X_TILE + 2 * radius)
-    ext = np.empty(X_TILE + 2 * radius)
+    span = X_TILE + 2 * radius
+    ring = np.empty((2 * radius + 1, span))
+    column = np.empty(span)
+    ext = np.empty(span)
     result = np.empty((Y_BLOCK, X_TILE))
-    bits = np.empty((Y_BLOCK, X_TILE), dtype=np.uint32)
     count = 0
-    energy_total = 0.0
+    exact = 0
+    half = 0.5
+    if mode == MODE_LOCAL_MEAN:
+        for x0 in range(0, width, X_TILE):
+            x1 = min(width, x0 + X_TILE)
+            for b0 in range(y0, y1, Y_BLOCK):
+                b1 = min(y1, b0 + Y_BLOCK)
+                _smooth_block(plane, plane, mode, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext, result)
+                for y in range(b0, b1):
+                    source = plane[y, x0:x1]
+                    mean = result[y - b0]
+                    out = flags[y, x0:x1]
+                    for i in range(x1 - x0):
+                        above_mean = source[i] > mean[i]
+                        out[i] = above_mean
+                        count += above_mean
+        return count, exact
+    # the energy, on the band and (for the bound) EDGE // 3 rows on each side
+    reach = 4  # the longest lag
+    e0 = max(0, y0 - reach) if mode == MODE_WALLS else y0
+    e1 = min(height, y1 + reach) if mode == MODE_WALLS else y1
+    band_energy = np.empty((e1 - e0, width))
+    for x0 in range(0, width, X_TILE):
+        x1 = min(width, x0 + X_TILE)
+        for b0 in range(e0, e1, Y_BLOCK):
+            b1 = min(e1, b0 + Y_BLOCK)
+            _smooth_block(fine, plane, MODE_ENERGY, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext, result)
+            for y in range(b0, b1):
+                band_energy[y - e0, x0:x1] = result[y - b0, : x1 - x0]
+    for y in range(y0, y1):
+        row = band_energy[y - e0]
+        out_energy = energy[y]
+        total = 0.0
+        for x in range(width):
+            out_energy[x] = row[x]
+            total += row[x]
+        sums[y, 0] = total
+    if mode == MODE_ENERGY:
+        return count, exact
+    ring32 = np.empty((2 * radius + 1, span), dtype=np.float32)
+    column32 = np.empty(span, dtype=np.float32)
+    ext32 = np.empty(span, dtype=np.float32)
+    lags = np.empty((13, LAG_BLOCK, X_TILE), dtype=np.float32)
+    inverse = np.empty((LAG_BLOCK, X_TILE))
+    margins = np.empty((LAG_BLOCK, X_TILE))
+    half32 = np.float32(0.5)
     for x0 in range(0, width, X_TILE):
         x1 = min(width, x0 + X_TILE)
         tile = x1 - x0
-        for b0 in range(y0, y1, Y_BLOCK):
-            b1 = min(y1, b0 + Y_BLOCK)
-            for m in range(n_maps):
+        for b0 in range(y0, y1, LAG_BLOCK):
+            b1 = min(y1, b0 + LAG_BLOCK)
+            for m in range(1, 13):
                 _smooth_block(
-                    fine, plane, mode, LAG_DY[m], LAG_DX[m], weights, b0, b1, x0, x1,
-                    ring, column, ext, result,
+                    fine32, plane, MODE_WALLS, LAG_DY[m], LAG_DX[m], half32, weights32, b0, b1,
+                    x0, x1, ring32, column32, ext32, lags[m],
                 )  # fmt: skip
-                if mode == MODE_LOCAL_MEAN:
-                    for y in range(b0, b1):
-                        source = plane[y, x0:x1]
-                        mean = result[y - b0]
-                        out = flags[y, x0:x1]
-                        for i in range(tile):
-                            above_mean = source[i] > mean[i]
-                            out[i] = above_mean
-                            count += above_mean
-                elif m == 0:
-                    for y in range(b0, b1):
-                        row_energy = energy[y, x0:x1]
-                        smoothed = result[y - b0]
-                        for i in range(tile):
-                            row_energy[i] = smoothed[i]
-                            energy_total += smoothed[i]
-                        bits[y - b0, :tile] = 0
-                else:
-                    # bit 5 f + 0: C(u_f) > along; + 1: C(u_f) < -alt; + 2: C(2 u_f) > alt;
-                    # + 3: C(2 u_f) < -alt; + 4: C(4 u_f) > alt
-                    family = (m - 1) // 3
-                    step = (m - 1) % 3
-                    shift = 5 * family + 2 * step
-                    for y in range(b0, b1):
-                        row_energy = energy[y, x0:x1]
-                        smoothed = result[y - b0]
-                        row_bits = bits[y - b0]
-                        for i in range(tile):
-                            denominator = row_energy[i]
-                            if denominator < 1e-12:  # np.maximum(e, 1e-12), NaN included
-                                denominator = 1e-12
-                            c = smoothed[i] / denominator
-                            if step == 0:
-                                value = (c > along_threshold) | ((c < -alternation_threshold) << 1)
-                            elif step == 1:
-                                value = (c > alternation_threshold) | ((c < -alternation_threshold) << 1)
-                            else:
-                                value = c > alternation_threshold
-                            row_bits[i] |= np.uint32(value) << np.uint32(shift)
-            if mode != MODE_WALLS:
-                continue
+            _margins(band_energy, e0, height, b0, b1, x0, x1, largest_square, inverse, margins)
             for y in range(b0, b1):
-                row_energy = energy[y, x0:x1]
-                row_bits = bits[y - b0]
+                row_energy = band_energy[y - e0, x0:x1]
+                row_inverse = inverse[y - b0]
+                row_margin = margins[y - b0]
                 out = flags[y, x0:x1]
                 for i in range(tile):
-                    b = row_bits[i]
+                    e = row_energy[i]
                     wall = False
-                    if row_energy[i] > energy_floor2:
-                        for direction in range(4):
-                            if (b >> (5 * direction)) & 1:
-                                alt = b >> (5 * NORMAL_FAMILY[direction] + 1)
-                                # opposite at w and again at 2 w, for w = 1 or 2
-                                if (alt & (alt >> 1) & 1) or ((alt >> 2) & (alt >> 3) & 1):
-                                    wall = True
-                                    break
+                    if e > energy_floor2:
+                        decided, wall = _decide(
+                            lags, y - b0, i, np.float64(row_inverse[i]), row_margin[i],
+                            along_threshold, alternation_threshold,
+                        )  # fmt: skip
+                        if not decided:
+                            wall = _exact_wall(
+                                fine, weights, y, x0 + i, e, along_threshold, alternation_threshold
+                            )
+                            exact += 1
                     out[i] = wall
                     count += wall
-    return count, energy_total
+    return count, exact
+
+
+@njit(cache=True, nogil=True)
+def _compare(c, threshold, margin):
+    """Whether ``C > threshold``: 0 (no), 1 (yes), or 2 when ``C``'s error bound leaves it open.
+
+    A negative ``threshold`` -t asks whether ``C < -t`` instead.
+    """
+    if not abs(c - threshold) > margin:  # NaN included
+        return 2
+    if threshold < 0:
+        return 1 if c < threshold else 0
+    return 1 if c > threshold else 0
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _margins(band_energy, e0, height, b0, b1, x0, x1, largest_square, inverse, margins):
+    """``1 / E`` and the float32 error bound of the correlations, for a block.
+
+    ``G * |product| <= E(p) / 2 + max(E(p + d), E(p - d)) / 2`` away from the
+    edges, bounded over every lag (|dy|, |dx| <= 4) by the largest energy of
+    the 9 x 9 neighbourhood; ``<= E(p) / 2 + max(h**2) / 2`` everywhere.
+    """
+    width = band_energy.shape[1]
+    reach = 4
+    tile = x1 - x0
+    lo = max(0, x0 - reach)
+    hi = min(width, x1 + reach)
+    column_max = np.empty(hi - lo)
+    largest = np.empty(tile)
+    # inner columns of the tile: x in [i0 + x0, i1 + x0), their 9 neighbours in [lo, hi)
+    i0 = min(max(EDGE - x0, 0), tile)
+    i1 = max(min(width - EDGE - x0, tile), i0)
+    for y in range(b0, b1):
+        row_inverse = inverse[y - b0]
+        row_margin = margins[y - b0]
+        energy_row = band_energy[y - e0, x0:x1]
+        for i in range(tile):
+            row_inverse[i] = 1.0 / energy_row[i]
+            largest[i] = largest_square
+        if y >= EDGE and y < height - EDGE and i1 > i0:
+            first = band_energy[y - reach - e0, lo:hi]
+            for k in range(hi - lo):
+                column_max[k] = first[k]
+            for j in range(1 - reach, reach + 1):
+                other = band_energy[y + j - e0, lo:hi]
+                for k in range(hi - lo):
+                    column_max[k] = max(column_max[k], other[k])
+            inner = largest[i0:i1]
+            start = x0 + i0 - reach - lo
+            window = column_max[start : start + (i1 - i0)]
+            for i in range(i1 - i0):
+                inner[i] = window[i]
+            for k in range(1, 2 * reach + 1):
+                window = column_max[start + k : start + k + (i1 - i0)]
+                for i in range(i1 - i0):
+                    inner[i] = max(inner[i], window[i])
+        for i in range(tile):
+            row_margin[i] = FLOAT32_ERROR * (0.5 + 0.5 * largest[i] * row_inverse[i]) + 1e-12
+
+
+@njit(cache=True, nogil=True)
+def _and(a, b):
+    if a == 0 or b == 0:
+        return 0
+    if a == 2 or b == 2:
+        return 2
+    return 1
+
+
+@njit(cache=True, nogil=True)
+def _or(a, b):
+    if a == 1 or b == 1:
+        return 1
+    if a == 2 or b == 2:
+        return 2
+    return 0
+
+
+@njit(cache=True, nogil=True)
+def _decide(lags, row, i, inverse, margin, along, alternation):
+    """``(decided, wall)``: the wall decision at a pixel from the float32 maps, if they settle it.
+
+    A wall: for a direction f with normal g, C(u_f) > along and
+    (C(u_g) < -alt and C(2 u_g) > alt, or C(2 u_g) < -alt and C(4 u_g) > alt).
+    Comparisons are made only as far as the decision needs them.
+    """
+    wall = 0
+    for direction in range(4):
+        m = 1 + 3 * direction
+        along_ = _compare(lags[m, row, i] * inverse, along, margin)
+        if along_ == 0:
+            continue
+        n = 1 + 3 * NORMAL_FAMILY[direction]
+        c1 = lags[n, row, i] * inverse
+        c2 = lags[n + 1, row, i] * inverse
+        first = _compare(c1, -alternation, margin)
+        if first != 0:
+            first = _and(first, _compare(c2, alternation, margin))
+        alternates = first
+        if alternates != 1:
+            second = _compare(c2, -alternation, margin)
+            if second != 0:
+                second = _and(second, _compare(lags[n + 2, row, i] * inverse, alternation, margin))
+            alternates = _or(alternates, second)
+        wall = _or(wall, _and(along_, alternates))
+        if wall == 1:
+            return True, True
+    if wall == 2:
+        return False, False
+    return True, False
+
+
+@njit(cache=True, nogil=True)
+def _product(fine, row, column, dy, dx):
+    """``0.5 * (h(p) h(p + d) + h(p - d) h(p))``, lags wrapping, as :func:`_source_row`."""
+    height, width = fine.shape
+    centre = fine[row, column]
+    return 0.5 * (
+        centre * fine[(row + dy) % height, (column + dx) % width]
+        + fine[(row - dy) % height, (column - dx) % width] * centre
+    )
+
+
+@njit(cache=True, nogil=True)
+def _exact_smoothed(fine, weights, y, x, dy, dx):
+    """The float64 Gaussian of the lag product at one pixel, as the block pipeline and
+    scipy compute it: the same operations in the same order (so the same float)."""
+    height, width = fine.shape
+    radius = weights.shape[0] - 1
+    vertical = np.empty(2 * radius + 1)
+    for k in range(-radius, radius + 1):
+        column = _reflect(x + k, width)
+        value = _product(fine, y, column, dy, dx) * weights[0]
+        for j in range(radius, 0, -1):
+            above = _product(fine, _reflect(y - j, height), column, dy, dx)
+            below = _product(fine, _reflect(y + j, height), column, dy, dx)
+            value += (above + below) * weights[j]
+        vertical[k + radius] = value
+    value = vertical[radius] * weights[0]
+    for j in range(radius, 0, -1):
+        value += (vertical[radius - j] + vertical[radius + j]) * weights[j]
+    return value
+
+
+@njit(cache=True, nogil=True)
+def _exact_wall(fine, weights, y, x, e, along_threshold, alternation_threshold):
+    """The wall decision at one pixel (energy ``e`` above the floor), all in float64."""
+    denominator = e if not e < 1e-12 else 1e-12
+    for direction in range(4):
+        ay, ax = LAG_DY[1 + 3 * direction], LAG_DX[1 + 3 * direction]
+        if not _exact_smoothed(fine, weights, y, x, ay, ax) / denominator > along_threshold:
+            continue
+        n = 1 + 3 * NORMAL_FAMILY[direction]
+        c1 = _exact_smoothed(fine, weights, y, x, LAG_DY[n], LAG_DX[n]) / denominator
+        c2 = _exact_smoothed(fine, weights, y, x, LAG_DY[n + 1], LAG_DX[n + 1]) / denominator
+        if c1 < -alternation_threshold and c2 > alternation_threshold:
+            return True
+        if c2 < -alternation_threshold:
+            c4 = _exact_smoothed(fine, weights, y, x, LAG_DY[n + 2], LAG_DX[n + 2]) / denominator
+            if c4 > alternation_threshold:
+                return True
+    return False
 
 
 # --- structure tensor of the plane upsampled twice (float32) ---------------------------
@@ -368,69 +571,99 @@ def smooth_band(
 TENSOR_COMPONENTS = 0  # jrr, jrc, jcc
 TENSOR_DERIVED = 1  # strength, coherence * strength, cos(2 angle), sin(2 angle)
 
+#: Bytes of :func:`orientation_band`'s ring of smoothed rows per column tile when only
+#: the walls' pixels are asked for: narrow tiles skip more rows without walls.
+TENSOR_RING_BYTES = 256 * 1024
+
 
 @njit(cache=True, nogil=True)
-def _doubled_row(plane, i, line, even, odd):
-    """Row ``i`` of ``zoom(plane, 2, order=1, grid_mode=True, mode="nearest")``, split by column parity.
+def _doubled_row(plane, i, origin, line, even, odd):
+    """Row ``i`` of ``zoom(plane, 2, order=1, grid_mode=True, mode="nearest")``, split by parity.
 
-    ``even[1 + x]`` holds column 2 x and ``odd[1 + x]`` column 2 x + 1;
-    ``even[0]``, ``odd[0]`` and the last elements are zero (the structure
+    ``even[k]`` and ``odd[k]`` get the doubled columns 2 X and 2 X + 1 for
+    X = ``origin + k``; zero where X is outside the plane (the structure
     tensor's ``constant`` padding). Doubled pixel 2 k samples the plane at
     k - 1/4 and 2 k + 1 at k + 1/4: weights 1/4 and 3/4, clamped at the edges.
+    ``line`` is scratch space as long as ``even``.
     """
     height, width = plane.shape
+    n = even.shape[0]
     k = i // 2
     other = k - 1 if i % 2 == 0 else k + 1
     other = min(max(other, 0), height - 1)
     near = plane[k]
     far = plane[other]
-    for x in range(width):
-        line[x] = 0.75 * near[x] + 0.25 * far[x]
-    even[0] = 0.0
-    odd[0] = 0.0
-    even[width + 1] = 0.0
-    odd[width + 1] = 0.0
-    even[1] = line[0]
-    odd[width] = line[width - 1]
-    for x in range(1, width):
-        even[1 + x] = 0.25 * line[x - 1] + 0.75 * line[x]
-    for x in range(width - 1):
-        odd[1 + x] = 0.75 * line[x] + 0.25 * line[x + 1]
+    # local index j holds phase column origin + j; the plane's columns are j in [j0, j1)
+    j0 = min(max(0, -origin), n)
+    j1 = max(min(n, width - origin), j0)
+    for j in range(j0):
+        even[j] = 0.0
+        odd[j] = 0.0
+    for j in range(j1, n):
+        even[j] = 0.0
+        odd[j] = 0.0
+    if j1 == j0:
+        return
+    # line[j - j0 + 1] = vertical interpolation at column origin + j, for j in [j0 - 1, j1 + 1), clamped
+    lo = origin + j0
+    hi = origin + j1
+    for x in range(lo, hi):
+        line[x - lo + 1] = 0.75 * near[x] + 0.25 * far[x]
+    left = max(lo - 1, 0)
+    right = min(hi, width - 1)
+    line[0] = 0.75 * near[left] + 0.25 * far[left]
+    line[hi - lo + 1] = 0.75 * near[right] + 0.25 * far[right]
+    count = j1 - j0
+    _interpolate(line[:count], line[1 : count + 1], 0.25, 0.75, even[j0:j1])
+    _interpolate(line[1 : count + 1], line[2 : count + 2], 0.75, 0.25, odd[j0:j1])
 
 
 @njit(cache=True, nogil=True)
-def _tensor_products(up_e, up_o, mid_e, mid_o, down_e, down_o, pad, work, products_e, products_o):
+def _interpolate(a, b, wa, wb, out):
+    for x in range(out.shape[0]):
+        out[x] = wa * a[x] + wb * b[x]
+
+
+@njit(cache=True, nogil=True)
+def _tensor_products(up_e, up_o, mid_e, mid_o, down_e, down_o, origin, width, work, products_e, products_o):
     """Products of the Sobel derivatives (``constant`` padding) of one doubled row.
 
     ``up``/``mid``/``down`` are the doubled rows i - 1, i, i + 1 (zero rows
-    outside the plane), split by column parity with one zero on each side:
-    index 1 + x is column x of a phase, so index 0 of the odd phase is
-    column -1 and index ``width + 1`` of the even phase column 2 ``width``,
-    both zero. ``products_*[c, pad + x]`` get ``d_r**2``, ``d_r d_c``,
-    ``d_c**2`` at columns 2 x (``_e``) and 2 x + 1 (``_o``). ``work`` is
-    scratch space of shape (8, width + 2).
+    outside the plane) split by column parity, index k holding phase column
+    ``origin + k`` (zero outside the plane). ``products_*[c, k]`` get
+    ``d_r**2``, ``d_r d_c``, ``d_c**2`` at doubled columns 2 X (``_e``) and
+    2 X + 1 (``_o``), X = ``origin + k``, for k in [1, n - 1), and zero for
+    columns outside the plane (the Gaussian's padding). ``work`` is scratch
+    space of shape (8, n).
     """
-    width = up_e.shape[0] - 2
+    n = up_e.shape[0]
     dv_e, dv_o, sv_e, sv_o = work[0], work[1], work[2], work[3]
     dr_e, dr_o, dc_e, dc_o = work[4], work[5], work[6], work[7]
-    for x in range(width + 2):
-        dv_e[x] = down_e[x] - up_e[x]
-    for x in range(width + 2):
-        dv_o[x] = down_o[x] - up_o[x]
-    for x in range(width + 2):
-        sv_e[x] = up_e[x] + 2.0 * mid_e[x] + down_e[x]
-    for x in range(width + 2):
-        sv_o[x] = up_o[x] + 2.0 * mid_o[x] + down_o[x]
-    _sobel_phase(dv_o[:width], dv_e[1 : width + 1], dv_o[1 : width + 1], dr_e)
-    _sobel_phase(dv_e[1 : width + 1], dv_o[1 : width + 1], dv_e[2 : width + 2], dr_o)
-    _difference(sv_o[1 : width + 1], sv_o[:width], dc_e)
-    _difference(sv_e[2 : width + 2], sv_e[1 : width + 1], dc_o)
-    _product(dr_e, dr_e, products_e[0, pad : pad + width])
-    _product(dr_e, dc_e, products_e[1, pad : pad + width])
-    _product(dc_e, dc_e, products_e[2, pad : pad + width])
-    _product(dr_o, dr_o, products_o[0, pad : pad + width])
-    _product(dr_o, dc_o, products_o[1, pad : pad + width])
-    _product(dc_o, dc_o, products_o[2, pad : pad + width])
+    for k in range(n):
+        dv_e[k] = down_e[k] - up_e[k]
+        dv_o[k] = down_o[k] - up_o[k]
+    for k in range(n):
+        sv_e[k] = up_e[k] + 2.0 * mid_e[k] + down_e[k]
+        sv_o[k] = up_o[k] + 2.0 * mid_o[k] + down_o[k]
+    m = n - 2
+    _sobel_phase(dv_o[: n - 2], dv_e[1 : n - 1], dv_o[1 : n - 1], dr_e[1 : n - 1])
+    _sobel_phase(dv_e[1 : n - 1], dv_o[1 : n - 1], dv_e[2:n], dr_o[1 : n - 1])
+    _difference(sv_o[1 : n - 1], sv_o[: n - 2], dc_e[1 : n - 1])
+    _difference(sv_e[2:n], sv_e[1 : n - 1], dc_o[1 : n - 1])
+    # inside the plane only: phase columns origin + k in [0, width)
+    k0 = min(max(1, -origin), n - 1)
+    k1 = max(min(n - 1, width - origin), k0)
+    for c in range(3):
+        for k in range(1, k0):
+            products_e[c, k] = 0.0
+            products_o[c, k] = 0.0
+        for k in range(k1, n - 1):
+            products_e[c, k] = 0.0
+            products_o[c, k] = 0.0
+    if k1 > k0:
+        _products(dr_e[k0:k1], dc_e[k0:k1], products_e[0, k0:k1], products_e[1, k0:k1], products_e[2, k0:k1])
+        _products(dr_o[k0:k1], dc_o[k0:k1], products_o[0, k0:k1], products_o[1, k0:k1], products_o[2, k0:k1])
+    return m
 
 
 @njit(cache=True, nogil=True)
@@ -446,14 +679,16 @@ def _difference(a, b, out):
 
 
 @njit(cache=True, nogil=True)
-def _product(a, b, out):
-    for x in range(out.shape[0]):
-        out[x] = a[x] * b[x]
+def _products(dr, dc, rr, rc, cc):
+    for x in range(dr.shape[0]):
+        rr[x] = dr[x] * dr[x]
+        rc[x] = dr[x] * dc[x]
+        cc[x] = dc[x] * dc[x]
 
 
 @njit(cache=True, nogil=True)
 def _gauss_even(line_e, line_o, pad, weights, out):
-    """Gaussian (zero padding) of a doubled line at its even columns, from its two phases.
+    """Gaussian of a doubled line at its even columns, from its two phases.
 
     Doubled column 2 X + t is ``line_e[pad + X + t / 2]`` for even t and
     ``line_o[pad + X + (t - 1) / 2]`` for odd t.
@@ -463,8 +698,7 @@ def _gauss_even(line_e, line_o, pad, weights, out):
     _scale(out, line_e[pad : pad + n], weights[0])
     t = radius
     while t >= 1:
-        count = min(4, t)
-        if count == 4:
+        if t >= 4:
             a1, b1 = _phase_pair(line_e, line_o, pad, n, t)
             a2, b2 = _phase_pair(line_e, line_o, pad, n, t - 1)
             a3, b3 = _phase_pair(line_e, line_o, pad, n, t - 2)
@@ -491,41 +725,51 @@ def _phase_pair(line_e, line_o, pad, n, t):
 
 
 @njit(cache=True, nogil=True)
-def orientation_band(plane, weights, mode, out0, out1, out2, out3, y0, y1):
-    """Structure tensor of ``zoom(plane, 2)`` at the even doubled pixels of rows ``[y0, y1)``.
-
-    ``skimage.feature.structure_tensor(doubled, sigma, order="rc")[::2, ::2]``:
-    Sobel derivatives and a Gaussian (``weights``, on the doubled grid), both
-    with zero padding, in float32. ``mode`` TENSOR_COMPONENTS writes jrr, jrc,
-    jcc to ``out0..out2``; TENSOR_DERIVED writes the strength ``l1 + l2``,
-    coherence times strength, and cos, sin of twice the angle (``out0..out3``).
-    """
+def _tensor_tile(plane, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3):
+    """:func:`orientation_band` on the output columns ``[x0, x1)``."""
     height, width = plane.shape
     doubled_height = 2 * height
     radius = weights.shape[0] - 1
     ring_rows = 2 * radius + 1
     zero_slot = ring_rows
     pad = radius // 2 + 1
-    # doubled rows (phases, one zero on each side): slots 0..2 by row % 3, slot 3 a zero row
-    rows_e = np.zeros((4, width + 2), dtype=np.float32)
-    rows_o = np.zeros((4, width + 2), dtype=np.float32)
+    tile = x1 - x0
+    origin = x0 - pad  # phase column of local index 0
+    n = tile + 2 * pad
+    # which output rows (of the band, +- radius / 2 rows) hold a wall pixel in the tile
+    first = max(0, y0 - pad)
+    last = min(height, y1 + pad)
+    has_walls = np.ones(last - first + 1, dtype=np.int64)  # prefix counts, has_walls[0] = 0
+    has_walls[0] = 0
+    for y in range(first, last):
+        found = True
+        if use_walls:
+            found = False
+            for x in range(x0, x1):
+                if walls[y, x]:
+                    found = True
+                    break
+        has_walls[y - first + 1] = has_walls[y - first] + (1 if found else 0)
+    rows_e = np.zeros((4, n), dtype=np.float32)  # doubled rows: slots 0..2 by row % 3, 3 zero
+    rows_o = np.zeros((4, n), dtype=np.float32)
     row_of_slot = np.full(3, -1, dtype=np.int64)
-    products_e = np.zeros((3, width + 2 * pad), dtype=np.float32)
-    products_o = np.zeros((3, width + 2 * pad), dtype=np.float32)
-    ring = np.zeros((3, ring_rows + 1, width), dtype=np.float32)
-    tensor = np.empty((3, width), dtype=np.float32)
+    line = np.empty(n + 2, dtype=np.float32)
+    slots = np.empty(3, dtype=np.int64)
+    work = np.zeros((8, n), dtype=np.float32)
+    products_e = np.zeros((3, n), dtype=np.float32)
+    products_o = np.zeros((3, n), dtype=np.float32)
+    ring = np.zeros((3, ring_rows + 1, tile), dtype=np.float32)
+    tensor = np.empty((3, tile), dtype=np.float32)
     lower = np.empty(radius + 1, dtype=np.int64)
     upper = np.empty(radius + 1, dtype=np.int64)
-    line_e = np.empty(width + 2)
-    line_o = np.empty(width + 2)
-    line = np.empty(width)
-    slots = np.empty(3, dtype=np.int64)
-    work = np.empty((8, width + 2), dtype=np.float32)
     next_row = max(0, 2 * y0 - radius)
     for y in range(y0, y1):
+        if has_walls[y - first + 1] == has_walls[y - first]:
+            continue  # no wall pixel in this row of the tile: nothing to measure
         centre = 2 * y
-        last = min(centre + radius, doubled_height - 1)
-        while next_row <= last:
+        next_row = max(next_row, centre - radius)
+        last_row = min(centre + radius, doubled_height - 1)
+        while next_row <= last_row:
             i = next_row
             for k in range(3):
                 r = i - 1 + k
@@ -534,15 +778,12 @@ def orientation_band(plane, weights, mode, out0, out1, out2, out3, y0, y1):
                     continue
                 slot = r % 3
                 if row_of_slot[slot] != r:
-                    _doubled_row(plane, r, line, line_e, line_o)
-                    for x in range(width + 2):
-                        rows_e[slot, x] = line_e[x]
-                        rows_o[slot, x] = line_o[x]
+                    _doubled_row(plane, r, origin, line, rows_e[slot], rows_o[slot])
                     row_of_slot[slot] = r
                 slots[k] = slot
             _tensor_products(
                 rows_e[slots[0]], rows_o[slots[0]], rows_e[slots[1]], rows_o[slots[1]],
-                rows_e[slots[2]], rows_o[slots[2]], pad, work, products_e, products_o,
+                rows_e[slots[2]], rows_o[slots[2]], origin, width, work, products_e, products_o,
             )  # fmt: skip
             for c in range(3):
                 _gauss_even(products_e[c], products_o[c], pad, weights, ring[c, i % ring_rows])
@@ -555,45 +796,82 @@ def orientation_band(plane, weights, mode, out0, out1, out2, out3, y0, y1):
         for c in range(3):
             _gauss_rows(ring[c], lower, upper, centre % ring_rows, weights, tensor[c])
         if mode == TENSOR_COMPONENTS:
-            for x in range(width):
-                out0[y, x] = tensor[0, x]
-                out1[y, x] = tensor[1, x]
-                out2[y, x] = tensor[2, x]
-            continue
-        for x in range(width):
-            jrr = np.float64(tensor[0, x])
-            jrc = np.float64(tensor[1, x])
-            jcc = np.float64(tensor[2, x])
-            trace = jrr + jcc
-            along = jrr - jcc
-            across = 2.0 * jrc
-            difference = np.sqrt(along * along + across * across)
-            coherence = 0.0
-            if trace > 0:
-                coherence = (difference / max(trace, 1e-12)) ** 2
-            cosine = 1.0
-            sine = 0.0
-            if difference > 0:
-                cosine = along / difference
-                sine = across / difference
-            out0[y, x] = trace
-            out1[y, x] = coherence * trace
-            out2[y, x] = cosine
-            out3[y, x] = sine
+            _copy(tensor[0], out0[y, x0:x1])
+            _copy(tensor[1], out1[y, x0:x1])
+            _copy(tensor[2], out2[y, x0:x1])
+        else:
+            _derive(tensor[0], tensor[1], tensor[2], out0[y, x0:x1], out1[y, x0:x1], out2[y, x0:x1], out3[y, x0:x1])
+
+
+@njit(cache=True, nogil=True)
+def _copy(source, target):
+    for x in range(target.shape[0]):
+        target[x] = source[x]
+
+
+@njit(cache=True, nogil=True)
+def _derive(rr, rc, cc, strength, coherent, cosine, sine):
+    """Strength ``l1 + l2``, coherence times strength, cos and sin of twice the angle."""
+    for x in range(strength.shape[0]):
+        jrr = np.float64(rr[x])
+        jrc = np.float64(rc[x])
+        jcc = np.float64(cc[x])
+        trace = jrr + jcc
+        along = jrr - jcc
+        across = 2.0 * jrc
+        difference = np.sqrt(along * along + across * across)
+        coherence = 0.0
+        if trace > 0:
+            coherence = (difference / max(trace, 1e-12)) ** 2
+        c = 1.0
+        s = 0.0
+        if difference > 0:
+            c = along / difference
+            s = across / difference
+        strength[x] = trace
+        coherent[x] = coherence * trace
+        cosine[x] = c
+        sine[x] = s
+
+
+@njit(cache=True, nogil=True)
+def orientation_band(plane, weights, mode, walls, use_walls, out0, out1, out2, out3, y0, y1):
+    """Structure tensor of ``zoom(plane, 2)`` at the even doubled pixels of rows ``[y0, y1)``.
+
+    ``skimage.feature.structure_tensor(doubled, sigma, order="rc")[::2, ::2]``:
+    Sobel derivatives and a Gaussian (``weights``, on the doubled grid), both
+    with zero padding, in float32; only the samples on the original grid are
+    computed (the Gaussian's passes at even columns, then at even rows).
+    ``mode`` TENSOR_COMPONENTS writes jrr, jrc, jcc to ``out0..out2``;
+    TENSOR_DERIVED writes the strength ``l1 + l2``, coherence times strength,
+    and cos, sin of twice the angle to ``out0..out3``. With ``use_walls``,
+    only rows of column tiles that hold a True pixel of ``walls`` are
+    computed (the other pixels of the outputs are left as they were).
+    """
+    width = plane.shape[1]
+    radius = weights.shape[0] - 1
+    tile = width  # whole rows are fastest when every pixel is asked for
+    if use_walls:
+        tile = max(256, TENSOR_RING_BYTES // (3 * (2 * radius + 2) * 4))
+    count = max(1, (width + tile - 1) // tile)
+    for k in range(count):
+        x0 = (k * width) // count
+        x1 = ((k + 1) * width) // count
+        _tensor_tile(plane, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3)
 
 
 # --- reductions --------------------------------------------------------------------------
 
 
 @njit(cache=True, nogil=True)
-def sobel_band(plane, out, y0, y1):
-    """``skimage.filters.sobel`` (``reflect``) on rows ``[y0, y1)``; returns min, max and sum."""
+def sobel_band(plane, out, sums, y0, y1):
+    """``skimage.filters.sobel`` (``reflect``) on rows ``[y0, y1)``; ``sums[y]``: min, max, sum."""
     height, width = plane.shape
-    low = np.inf
-    high = -np.inf
-    total = 0.0
     root2 = np.sqrt(2.0)
     for y in range(y0, y1):
+        low = np.inf
+        high = -np.inf
+        total = 0.0
         up = plane[_reflect(y - 1, height)]
         mid = plane[y]
         down = plane[_reflect(y + 1, height)]
@@ -611,34 +889,37 @@ def sobel_band(plane, out, y0, y1):
             low = min(low, value)
             high = max(high, value)
             total += value
-    return low, high, total
+        sums[y, 0] = low
+        sums[y, 1] = high
+        sums[y, 2] = total
 
 
 @njit(cache=True, nogil=True)
-def centred_sums(first, second, first_mean, second_mean, y0, y1):
-    """Sums of ``(a - ma)**2`` and of ``(b - mb)**2`` over rows ``[y0, y1)``."""
+def centred_sums(first, second, first_mean, second_mean, sums, y0, y1):
+    """``sums[y]``: the sums of ``(a - ma)**2`` and of ``(b - mb)**2`` over row y."""
     width = first.shape[1]
-    first_total = 0.0
-    second_total = 0.0
     for y in range(y0, y1):
+        first_total = 0.0
+        second_total = 0.0
         for x in range(width):
             a = first[y, x] - first_mean
             b = second[y, x] - second_mean
             first_total += a * a
             second_total += b * b
-    return first_total, second_total
+        sums[y, 0] = first_total
+        sums[y, 1] = second_total
 
 
 @njit(cache=True, nogil=True)
-def added_edge_sums(after, before, edges, added_mean, edges_mean, y0, y1):
-    """For ``a = after - before`` and ``s = edges`` on rows ``[y0, y1)``:
+def added_edge_sums(after, before, edges, added_mean, edges_mean, sums, y0, y1):
+    """For ``a = after - before`` and ``s = edges``, ``sums[y]`` gets, over row y:
     ``sum((a - ma)(s - ms))``, ``sum((a - ma)**2)``, min(a), max(a)."""
     width = after.shape[1]
-    cross = 0.0
-    spread = 0.0
-    low = np.inf
-    high = -np.inf
     for y in range(y0, y1):
+        cross = 0.0
+        spread = 0.0
+        low = np.inf
+        high = -np.inf
         for x in range(width):
             added = after[y, x] - before[y, x]
             a = added - added_mean
@@ -646,7 +927,10 @@ def added_edge_sums(after, before, edges, added_mean, edges_mean, y0, y1):
             spread += a * a
             low = min(low, added)
             high = max(high, added)
-    return cross, spread, low, high
+        sums[y, 0] = cross
+        sums[y, 1] = spread
+        sums[y, 2] = low
+        sums[y, 3] = high
 
 
 @njit(cache=True, nogil=True)
@@ -677,34 +961,39 @@ def wall_pair_counts(walls, positive, y0, y1):
 
 
 @njit(cache=True, nogil=True)
-def wall_weighted_sums(walls, strength, coherent, y0, y1):
-    """``sum(coherent * walls)`` and ``sum(strength * walls)`` over rows ``[y0, y1)``."""
+def wall_weighted_sums(walls, strength, coherent, sums, y0, y1):
+    """``sums[y]``: ``sum(coherent * walls)`` and ``sum(strength * walls)`` over row y."""
     width = walls.shape[1]
-    numerator = 0.0
-    denominator = 0.0
     for y in range(y0, y1):
+        numerator = 0.0
+        denominator = 0.0
         for x in range(width):
             if walls[y, x]:
                 numerator += coherent[y, x]
                 denominator += strength[y, x]
-    return numerator, denominator
+        sums[y, 0] = numerator
+        sums[y, 1] = denominator
 
 
 @njit(cache=True, nogil=True)
-def alignment_sums(walls, wall_coherent, wall_cos, wall_sin, contour_coherent, contour_cos, contour_sin, y0, y1):
-    """``sum(cos**2(angle difference) * weight)`` and ``sum(weight)`` on the walls,
-    weight = wall coherence * strength * contour coherence * strength.
+def alignment_sums(
+    walls, wall_coherent, wall_cos, wall_sin, contour_coherent, contour_cos, contour_sin, sums,
+    y0, y1,
+):  # fmt: skip
+    """``sums[y]``: ``sum(cos**2(angle difference) * weight)`` and ``sum(weight)`` on the
+    walls of row y, weight = wall coherence * strength * contour coherence * strength.
 
     ``cos**2(a - b) = (1 + cos 2a cos 2b + sin 2a sin 2b) / 2``.
     """
     width = walls.shape[1]
-    numerator = 0.0
-    denominator = 0.0
     for y in range(y0, y1):
+        numerator = 0.0
+        denominator = 0.0
         for x in range(width):
             if walls[y, x]:
                 weight = np.float64(wall_coherent[y, x]) * np.float64(contour_coherent[y, x])
                 cosine = np.float64(wall_cos[y, x]) * contour_cos[y, x] + np.float64(wall_sin[y, x]) * contour_sin[y, x]
                 numerator += 0.5 * (1.0 + cosine) * weight
                 denominator += weight
-    return numerator, denominator
+        sums[y, 0] = numerator
+        sums[y, 1] = denominator

@@ -127,7 +127,7 @@ class _ContentCache:
     @staticmethod
     def key(array: np.ndarray) -> tuple:
         data = np.ascontiguousarray(array)
-        digest = hashlib.sha256(memoryview(data).cast("B")).digest()
+        digest = hashlib.sha256(data.view(np.uint8)).digest()  # releases the GIL
         return (data.dtype.str, data.shape, digest)
 
     def get(self, key, make: Callable[[], Any]):
@@ -168,30 +168,46 @@ class _Maps:
 
     def fine(self) -> tuple[np.ndarray, float]:
         """``h = g - G_1 * g`` and ``sum(h**2)``."""
+        fine, _, total, _ = self._fine()
+        return fine, total
+
+    def _fine(self) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """``h``, ``h`` in float32, ``sum(h**2)`` and ``max(h**2)``."""
 
         def compute():
             fine = np.empty_like(self.plane)
-            totals = self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine)
-            return _frozen(fine), math.fsum(totals)
+            fine32 = np.empty(self.plane.shape, dtype=np.float32)
+            sums = self._row_sums(2)
+            self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine, fine32, sums)
+            return _frozen(fine), _frozen(fine32), math.fsum(sums[:, 0]), float(sums[:, 1].max())
 
         return self._get("fine", compute)
 
-    def _smooth(self, mode, source, energy, flags) -> list:
+    def _row_sums(self, count: int) -> np.ndarray:
+        """Per-row partial sums that kernels fill: the totals do not depend on the bands."""
+        return np.empty((self.plane.shape[0], count))
+
+    def _smooth(self, mode, energy, flags) -> tuple[list, float]:
+        """The kernel's results per band and the sum of the energy."""
         kernels = _kernels()
-        return self._bands(
-            kernels.smooth_band, source, self.plane, mode, _weights(WINDOW_SIGMA),
-            ENERGY_FLOOR**2, ALONG_THRESHOLD, ALTERNATION_THRESHOLD, energy, flags,
+        fine, fine32, _, largest = self._fine()
+        sums = self._row_sums(1)
+        results = self._bands(
+            kernels.smooth_band, fine, fine32, self.plane, mode, _weights(WINDOW_SIGMA),
+            _weights(WINDOW_SIGMA, np.float32), ENERGY_FLOOR**2, ALONG_THRESHOLD,
+            ALTERNATION_THRESHOLD, largest, energy, flags, sums,
         )  # fmt: skip
+        return results, (math.fsum(sums[:, 0]) if mode != kernels.MODE_LOCAL_MEAN else math.nan)
 
     def walls(self) -> tuple[np.ndarray, np.ndarray, float]:
         """The wall map, the energy ``G_2 * h**2`` and the energy's sum."""
 
         def compute():
-            fine, _ = self.fine()
-            energy = np.empty_like(fine)
-            walls = np.empty(fine.shape, dtype=bool)
-            results = self._smooth(_kernels().MODE_WALLS, fine, energy, walls)
-            return _frozen(walls), _frozen(energy), math.fsum(total for _, total in results)
+            energy = np.empty_like(self.plane)
+            walls = np.empty(self.plane.shape, dtype=bool)
+            results, total = self._smooth(_kernels().MODE_WALLS, energy, walls)
+            self.exact_decisions = sum(r[1] for r in results)
+            return _frozen(walls), _frozen(energy), total
 
         return self._get("walls", compute)
 
@@ -203,10 +219,9 @@ class _Maps:
                 return energy, total
 
         def compute():
-            fine, _ = self.fine()
-            energy = np.empty_like(fine)
-            results = self._smooth(_kernels().MODE_ENERGY, fine, energy, np.empty((1, 1), bool))
-            return _frozen(energy), math.fsum(total for _, total in results)
+            energy = np.empty_like(self.plane)
+            _, total = self._smooth(_kernels().MODE_ENERGY, energy, np.empty((1, 1), bool))
+            return _frozen(energy), total
 
         return self._get("energy", compute)
 
@@ -219,15 +234,18 @@ class _Maps:
 
         def compute():
             positive = np.empty(self.plane.shape, dtype=bool)
-            self._smooth(_kernels().MODE_LOCAL_MEAN, self.plane, np.empty((1, 1)), positive)
+            self._smooth(_kernels().MODE_LOCAL_MEAN, np.empty((1, 1)), positive)
             return _frozen(positive)
 
         return self._get("above_local_mean", compute)
 
     def wall_orientation(self) -> tuple[np.ndarray, ...]:
-        """Strength, coherence * strength, cos and sin of twice the angle, of ``h``."""
+        """Strength, coherence * strength, cos and sin of twice the angle, of ``h``, on the walls."""
         return self._get(
-            "wall_orientation", lambda: _derived_orientation(self.fine()[0], WINDOW_SIGMA, self.workers)
+            "wall_orientation",
+            lambda: _derived_orientation(
+                self.fine()[0], WINDOW_SIGMA, self.workers, walls=self.walls()[0]
+            ),
         )
 
     def contours(self, sigma: float) -> tuple[np.ndarray, ...]:
@@ -242,11 +260,12 @@ class _Maps:
         def compute():
             kernels = _kernels()
             edges = np.empty_like(self.plane)
-            results = self._bands(kernels.sobel_band, self.plane, edges)
-            mean = math.fsum(r[2] for r in results) / edges.size
-            spread = math.fsum(r[0] for r in self._bands(kernels.centred_sums, edges, edges, mean, mean))
-            constant = min(r[0] for r in results) == max(r[1] for r in results)
-            return _frozen(edges), mean, spread, constant
+            sums = self._row_sums(3)
+            self._bands(kernels.sobel_band, self.plane, edges, sums)
+            mean = math.fsum(sums[:, 2]) / edges.size
+            constant = bool(sums[:, 0].min() == sums[:, 1].max())
+            self._bands(kernels.centred_sums, edges, edges, mean, mean, sums)
+            return _frozen(edges), mean, math.fsum(sums[:, 0]), constant
 
         return self._get("edges", compute)
 
@@ -275,26 +294,33 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     return array
 
 
-def _orientation_maps(plane: np.ndarray, sigma: float, mode: int, workers, count: int):
+def _orientation_maps(plane: np.ndarray, sigma: float, mode: int, workers, count: int, walls=None):
+    """Structure-tensor maps of ``plane`` (see ``_metrics_kernels.orientation_band``).
+
+    With ``walls``, only the pixels of the walls are sure to be computed.
+    """
     kernels = _kernels()
     outputs = [np.empty(plane.shape, dtype=np.float32) for _ in range(4)]
+    use_walls = walls is not None
+    walls = walls if use_walls else np.zeros((1, 1), dtype=bool)
     _in_bands(
         kernels.orientation_band, plane.shape[0], workers, plane,
-        _weights(2 * sigma, np.float32), mode, *outputs,
+        _weights(2 * sigma, np.float32), mode, walls, use_walls, *outputs,
     )  # fmt: skip
     return tuple(_frozen(output) for output in outputs[:count])
 
 
-def _derived_orientation(plane: np.ndarray, sigma: float, workers) -> tuple[np.ndarray, ...]:
-    return _orientation_maps(plane, sigma, _kernels().TENSOR_DERIVED, workers, 4)
+def _derived_orientation(plane: np.ndarray, sigma: float, workers, walls=None):
+    return _orientation_maps(plane, sigma, _kernels().TENSOR_DERIVED, workers, 4, walls)
 
 
 # --- the maps of renderings, shared between the single metrics ---------------------------
 
-#: Maps of the last few planes given to the single metrics, by content.
-_RENDERED = _ContentCache(4)
-#: Comparisons of the last few originals given to :func:`describe`, by content.
-_ORIGINALS = _ContentCache(2)
+#: Maps of the last plane given to the single metrics, by content (a plane's maps take
+#: about 45 bytes a pixel: one entry).
+_RENDERED = _ContentCache(1)
+#: The :class:`Comparison` of the last original given to :func:`describe`, by content.
+_ORIGINALS = _ContentCache(1)
 
 
 def _maps_of(image, name: str = "image") -> _Maps:
@@ -433,9 +459,10 @@ def _orientation_coherence(maps: _Maps) -> float:
         return math.nan
     walls, _, _ = maps.walls()
     strength, coherent, _, _ = maps.wall_orientation()
-    sums = maps._bands(_kernels().wall_weighted_sums, walls, strength, coherent)
-    numerator = math.fsum(s[0] for s in sums)
-    denominator = math.fsum(s[1] for s in sums)
+    sums = maps._row_sums(2)
+    maps._bands(_kernels().wall_weighted_sums, walls, strength, coherent, sums)
+    numerator = math.fsum(sums[:, 0])
+    denominator = math.fsum(sums[:, 1])
     return numerator / denominator if denominator > 0 else math.nan
 
 
@@ -464,12 +491,13 @@ def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTO
     walls, _, _ = after.walls()
     _, wall_coherent, wall_cos, wall_sin = after.wall_orientation()
     _, contour_coherent, contour_cos, contour_sin = before.contours(contour_sigma)
-    sums = after._bands(
+    sums = after._row_sums(2)
+    after._bands(
         _kernels().alignment_sums, walls, wall_coherent, wall_cos, wall_sin,
-        contour_coherent, contour_cos, contour_sin,
+        contour_coherent, contour_cos, contour_sin, sums,
     )  # fmt: skip
-    numerator = math.fsum(s[0] for s in sums)
-    total = math.fsum(s[1] for s in sums)
+    numerator = math.fsum(sums[:, 0])
+    total = math.fsum(sums[:, 1])
     if not total > 0:
         return math.nan
     return numerator / total
@@ -496,12 +524,14 @@ def _edge_enhancement(before: _Maps, after: _Maps) -> float:
     energy_before, total_before = before.energy()
     edges, edges_mean, edges_spread, edges_constant = before.edges()
     added_mean = (total_after - total_before) / edges.size
-    sums = after._bands(
-        _kernels().added_edge_sums, energy_after, energy_before, edges, added_mean, edges_mean
-    )
-    cross = math.fsum(s[0] for s in sums)
-    spread = math.fsum(s[1] for s in sums)
-    added_constant = min(s[2] for s in sums) == max(s[3] for s in sums)
+    sums = after._row_sums(4)
+    after._bands(
+        _kernels().added_edge_sums, energy_after, energy_before, edges, added_mean, edges_mean,
+        sums,
+    )  # fmt: skip
+    cross = math.fsum(sums[:, 0])
+    spread = math.fsum(sums[:, 1])
+    added_constant = bool(sums[:, 2].min() == sums[:, 3].max())
     if added_constant or edges_constant:
         return 0.0
     correlation = cross / math.sqrt(spread * edges_spread)
