@@ -153,7 +153,9 @@ def _extend(line, radius, ext):
 def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
     """``fine = plane - G * plane`` on rows ``[y0, y1)``, and its float32 copy ``fine32``.
 
-    ``sums[y]`` gets the sum and the largest value of ``fine[y]**2``.
+    ``sums[y]`` gets, over row y: the sum and the largest finite value of
+    ``fine**2``, the count of non-finite values of ``fine`` and the largest
+    finite ``|plane|``.
     """
     width = plane.shape[1]
     radius = weights.shape[0] - 1
@@ -174,15 +176,25 @@ def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
         out32 = fine32[y]
         total = 0.0
         largest = 0.0
+        nonfinite = 0
+        largest_tone = 0.0
         for x in range(width):
             value = row[x] - smooth[x]
             out[x] = value
             out32[x] = value
             square = value * value
             total += square
-            largest = max(largest, square)
+            if square > largest and square < np.inf:
+                largest = square
+            if not square < np.inf:
+                nonfinite += 1
+            tone = abs(row[x])
+            if tone > largest_tone and tone < np.inf:
+                largest_tone = tone
         sums[y, 0] = total
         sums[y, 1] = largest
+        sums[y, 2] = nonfinite
+        sums[y, 3] = largest_tone
 
 
 @njit(cache=True, nogil=True)
@@ -287,6 +299,7 @@ def smooth_band(
     along_threshold,
     alternation_threshold,
     largest_square,
+    lag_scale,
     energy,
     flags,
     sums,
@@ -302,7 +315,9 @@ def smooth_band(
 
     The energy and the local mean are scipy's Gaussian (``reflect``, axis 0
     then axis 1, the same operations in the same order: the same floats).
-    The 12 lag products are smoothed in float32 from ``fine32``; their
+    The 12 lag products are smoothed in float32 from ``fine32`` (``h`` times
+    a power of two whose square is ``1 / lag_scale``, to keep float32 away
+    from overflow); their
     correlations ``C = S / E`` decide the wall map wherever they are
     farther from the thresholds than the float32 error can reach, a bound
     ``FLOAT32_ERROR * B / E`` with ``B >= G * |product|`` (:func:`_margins`); the other
@@ -389,7 +404,7 @@ def smooth_band(
                     wall = False
                     if e > energy_floor2:
                         decided, wall = _decide(
-                            lags, y - b0, i, np.float64(row_inverse[i]), row_margin[i],
+                            lags, y - b0, i, row_inverse[i] * lag_scale, row_margin[i],
                             along_threshold, alternation_threshold,
                         )  # fmt: skip
                         if not decided:
@@ -577,14 +592,15 @@ TENSOR_RING_BYTES = 256 * 1024
 
 
 @njit(cache=True, nogil=True)
-def _doubled_row(plane, i, origin, line, even, odd):
+def _doubled_row(plane, scale, i, origin, line, even, odd):
     """Row ``i`` of ``zoom(plane, 2, order=1, grid_mode=True, mode="nearest")``, split by parity.
 
     ``even[k]`` and ``odd[k]`` get the doubled columns 2 X and 2 X + 1 for
     X = ``origin + k``; zero where X is outside the plane (the structure
     tensor's ``constant`` padding). Doubled pixel 2 k samples the plane at
     k - 1/4 and 2 k + 1 at k + 1/4: weights 1/4 and 3/4, clamped at the edges.
-    ``line`` is scratch space as long as ``even``.
+    ``line`` is scratch space as long as ``even``. Values are multiplied by
+    ``scale`` (a power of two: exact) to keep float32 products in range.
     """
     height, width = plane.shape
     n = even.shape[0]
@@ -608,11 +624,11 @@ def _doubled_row(plane, i, origin, line, even, odd):
     lo = origin + j0
     hi = origin + j1
     for x in range(lo, hi):
-        line[x - lo + 1] = 0.75 * near[x] + 0.25 * far[x]
+        line[x - lo + 1] = (0.75 * near[x] + 0.25 * far[x]) * scale
     left = max(lo - 1, 0)
     right = min(hi, width - 1)
-    line[0] = 0.75 * near[left] + 0.25 * far[left]
-    line[hi - lo + 1] = 0.75 * near[right] + 0.25 * far[right]
+    line[0] = (0.75 * near[left] + 0.25 * far[left]) * scale
+    line[hi - lo + 1] = (0.75 * near[right] + 0.25 * far[right]) * scale
     count = j1 - j0
     _interpolate(line[:count], line[1 : count + 1], 0.25, 0.75, even[j0:j1])
     _interpolate(line[1 : count + 1], line[2 : count + 2], 0.75, 0.25, odd[j0:j1])
@@ -725,7 +741,7 @@ def _phase_pair(line_e, line_o, pad, n, t):
 
 
 @njit(cache=True, nogil=True)
-def _tensor_tile(plane, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3):
+def _tensor_tile(plane, scale, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3):
     """:func:`orientation_band` on the output columns ``[x0, x1)``."""
     height, width = plane.shape
     doubled_height = 2 * height
@@ -778,7 +794,7 @@ def _tensor_tile(plane, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, o
                     continue
                 slot = r % 3
                 if row_of_slot[slot] != r:
-                    _doubled_row(plane, r, origin, line, rows_e[slot], rows_o[slot])
+                    _doubled_row(plane, scale, r, origin, line, rows_e[slot], rows_o[slot])
                     row_of_slot[slot] = r
                 slots[k] = slot
             _tensor_products(
@@ -835,7 +851,7 @@ def _derive(rr, rc, cc, strength, coherent, cosine, sine):
 
 
 @njit(cache=True, nogil=True)
-def orientation_band(plane, weights, mode, walls, use_walls, out0, out1, out2, out3, y0, y1):
+def orientation_band(plane, scale, weights, mode, walls, use_walls, out0, out1, out2, out3, y0, y1):
     """Structure tensor of ``zoom(plane, 2)`` at the even doubled pixels of rows ``[y0, y1)``.
 
     ``skimage.feature.structure_tensor(doubled, sigma, order="rc")[::2, ::2]``:
@@ -844,7 +860,9 @@ def orientation_band(plane, weights, mode, walls, use_walls, out0, out1, out2, o
     computed (the Gaussian's passes at even columns, then at even rows).
     ``mode`` TENSOR_COMPONENTS writes jrr, jrc, jcc to ``out0..out2``;
     TENSOR_DERIVED writes the strength ``l1 + l2``, coherence times strength,
-    and cos, sin of twice the angle to ``out0..out3``. With ``use_walls``,
+    and cos, sin of twice the angle to ``out0..out3``. The plane is first
+    multiplied by ``scale``, a power of two (the strengths by its square).
+    With ``use_walls``,
     only rows of column tiles that hold a True pixel of ``walls`` are
     computed (the other pixels of the outputs are left as they were).
     """
@@ -857,7 +875,9 @@ def orientation_band(plane, weights, mode, walls, use_walls, out0, out1, out2, o
     for k in range(count):
         x0 = (k * width) // count
         x1 = ((k + 1) * width) // count
-        _tensor_tile(plane, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3)
+        _tensor_tile(
+            plane, scale, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3
+        )
 
 
 # --- reductions --------------------------------------------------------------------------

@@ -28,7 +28,7 @@ import threading
 from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -168,20 +168,30 @@ class _Maps:
 
     def fine(self) -> tuple[np.ndarray, float]:
         """``h = g - G_1 * g`` and ``sum(h**2)``."""
-        fine, _, total, _ = self._fine()
-        return fine, total
+        fine = self._fine()
+        return fine.fine, fine.total
 
-    def _fine(self) -> tuple[np.ndarray, np.ndarray, float, float]:
-        """``h``, ``h`` in float32, ``sum(h**2)`` and ``max(h**2)``."""
-
+    def _fine(self) -> _Fine:
         def compute():
             fine = np.empty_like(self.plane)
             fine32 = np.empty(self.plane.shape, dtype=np.float32)
-            sums = self._row_sums(2)
+            sums = self._row_sums(4)
             self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine, fine32, sums)
-            return _frozen(fine), _frozen(fine32), math.fsum(sums[:, 0]), float(sums[:, 1].max())
+            largest_square = float(sums[:, 1].max())
+            scale = _float32_scale(math.sqrt(largest_square))
+            if scale != 1.0:  # h**2 would overflow (or lose its digits in) float32
+                fine32 = (fine * scale).astype(np.float32)
+            return _Fine(
+                _frozen(fine), _frozen(fine32), math.fsum(sums[:, 0]), largest_square,
+                1.0 / scale**2, not sums[:, 2].any(), float(sums[:, 3].max()),
+            )  # fmt: skip
 
         return self._get("fine", compute)
+
+    @property
+    def finite(self) -> bool:
+        """Whether ``h`` (so the plane) holds only finite values."""
+        return self._fine().finite
 
     def _row_sums(self, count: int) -> np.ndarray:
         """Per-row partial sums that kernels fill: the totals do not depend on the bands."""
@@ -190,12 +200,12 @@ class _Maps:
     def _smooth(self, mode, energy, flags) -> tuple[list, float]:
         """The kernel's results per band and the sum of the energy."""
         kernels = _kernels()
-        fine, fine32, _, largest = self._fine()
+        fine = self._fine()
         sums = self._row_sums(1)
         results = self._bands(
-            kernels.smooth_band, fine, fine32, self.plane, mode, _weights(WINDOW_SIGMA),
+            kernels.smooth_band, fine.fine, fine.fine32, self.plane, mode, _weights(WINDOW_SIGMA),
             _weights(WINDOW_SIGMA, np.float32), ENERGY_FLOOR**2, ALONG_THRESHOLD,
-            ALTERNATION_THRESHOLD, largest, energy, flags, sums,
+            ALTERNATION_THRESHOLD, fine.largest_square, fine.lag_scale, energy, flags, sums,
         )  # fmt: skip
         return results, (math.fsum(sums[:, 0]) if mode != kernels.MODE_LOCAL_MEAN else math.nan)
 
@@ -227,7 +237,7 @@ class _Maps:
 
     def cover(self) -> float:
         walls, _, _ = self.walls()
-        return np.count_nonzero(walls) / walls.size
+        return int(np.count_nonzero(walls)) / walls.size
 
     def above_local_mean(self) -> np.ndarray:
         """``g > G_2 * g``: where the plane is above its local mean."""
@@ -240,19 +250,26 @@ class _Maps:
         return self._get("above_local_mean", compute)
 
     def wall_orientation(self) -> tuple[np.ndarray, ...]:
-        """Strength, coherence * strength, cos and sin of twice the angle, of ``h``, on the walls."""
-        return self._get(
-            "wall_orientation",
-            lambda: _derived_orientation(
-                self.fine()[0], WINDOW_SIGMA, self.workers, walls=self.walls()[0]
-            ),
-        )
+        """Strength, coherence * strength, cos and sin of twice the angle, of ``h``, on the walls.
+
+        The strengths are those of ``h`` times a power of two (ratios of them are exact).
+        """
+
+        def compute():
+            fine = self._fine()
+            scale = _float32_scale(math.sqrt(fine.largest_square))
+            return _derived_orientation(fine.fine, scale, WINDOW_SIGMA, self.workers, self.walls()[0])
+
+        return self._get("wall_orientation", compute)
 
     def contours(self, sigma: float) -> tuple[np.ndarray, ...]:
-        """The same for the plane itself at ``sigma``: its contours."""
-        return self._get(
-            ("contours", float(sigma)), lambda: _derived_orientation(self.plane, sigma, self.workers)
-        )
+        """The same for the plane itself at ``sigma``, everywhere: its contours."""
+
+        def compute():
+            scale = _float32_scale(self._fine().largest_tone)
+            return _derived_orientation(self.plane, scale, sigma, self.workers)
+
+        return self._get(("contours", float(sigma)), compute)
 
     def edges(self) -> tuple[np.ndarray, float, float, bool]:
         """Sobel magnitude, its mean, ``sum((s - mean)**2)`` and whether it is constant."""
@@ -268,6 +285,23 @@ class _Maps:
             return _frozen(edges), mean, math.fsum(sums[:, 0]), constant
 
         return self._get("edges", compute)
+
+
+class _Fine(NamedTuple):
+    fine: np.ndarray  # h = g - G_1 * g
+    fine32: np.ndarray  # h * sqrt(1 / lag_scale) in float32, for the lag correlations
+    total: float  # sum(h**2)
+    largest_square: float  # max(h**2) over the finite values
+    lag_scale: float  # a power of two
+    finite: bool  # no NaN or infinity in h
+    largest_tone: float  # max(|g|) over the finite values
+
+
+def _float32_scale(largest: float) -> float:
+    """A power of two that brings values up to ``largest`` where float32 squares are safe."""
+    if not 0.0 < largest < math.inf or 2.0**-40 <= largest <= 2.0**40:
+        return 1.0
+    return 2.0 ** -math.frexp(largest)[1]
 
 
 def _kernels():
@@ -294,8 +328,8 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     return array
 
 
-def _orientation_maps(plane: np.ndarray, sigma: float, mode: int, workers, count: int, walls=None):
-    """Structure-tensor maps of ``plane`` (see ``_metrics_kernels.orientation_band``).
+def _orientation_maps(plane, scale, sigma, mode, workers, count, walls=None):
+    """Structure-tensor maps of ``plane * scale`` (see ``_metrics_kernels.orientation_band``).
 
     With ``walls``, only the pixels of the walls are sure to be computed.
     """
@@ -304,14 +338,14 @@ def _orientation_maps(plane: np.ndarray, sigma: float, mode: int, workers, count
     use_walls = walls is not None
     walls = walls if use_walls else np.zeros((1, 1), dtype=bool)
     _in_bands(
-        kernels.orientation_band, plane.shape[0], workers, plane,
+        kernels.orientation_band, plane.shape[0], workers, plane, scale,
         _weights(2 * sigma, np.float32), mode, walls, use_walls, *outputs,
     )  # fmt: skip
     return tuple(_frozen(output) for output in outputs[:count])
 
 
-def _derived_orientation(plane: np.ndarray, sigma: float, workers, walls=None):
-    return _orientation_maps(plane, sigma, _kernels().TENSOR_DERIVED, workers, 4, walls)
+def _derived_orientation(plane, scale, sigma, workers, walls=None):
+    return _orientation_maps(plane, scale, sigma, _kernels().TENSOR_DERIVED, workers, 4, walls)
 
 
 # --- the maps of renderings, shared between the single metrics ---------------------------
@@ -432,10 +466,10 @@ def orientation(image, sigma: float = WINDOW_SIGMA):
     computed, in float32 (relative error about 1e-7).
     """
     plane = _float_plane(_plane(image))
-    jrr, jrc, jcc = (
-        component.astype(np.float64)
-        for component in _orientation_maps(plane, sigma, _kernels().TENSOR_COMPONENTS, None, 3)
-    )
+    largest = float(np.max(np.abs(plane), where=np.isfinite(plane), initial=0.0))
+    scale = _float32_scale(largest)
+    components = _orientation_maps(plane, scale, sigma, _kernels().TENSOR_COMPONENTS, None, 3)
+    jrr, jrc, jcc = (component / scale**2 for component in components)  # float64, exact
     trace = jrr + jcc
     difference = np.sqrt((jrr - jcc) ** 2 + 4 * jrc**2)
     coherence = np.where(trace > 0, (difference / np.maximum(trace, 1e-12)) ** 2, 0.0)
@@ -455,8 +489,8 @@ def orientation_coherence(image) -> float:
 
 
 def _orientation_coherence(maps: _Maps) -> float:
-    if maps.cover() < MIN_COVER:
-        return math.nan
+    if maps.cover() < MIN_COVER or not maps.finite:
+        return math.nan  # NaN or infinity in h: the weighted sum is NaN
     walls, _, _ = maps.walls()
     strength, coherent, _, _ = maps.wall_orientation()
     sums = maps._row_sums(2)
@@ -486,8 +520,8 @@ def contour_alignment(original, rendered, *, contour_sigma: float = CONTOUR_SIGM
 
 
 def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTOUR_SIGMA) -> float:
-    if after.cover() < MIN_COVER:
-        return math.nan
+    if after.cover() < MIN_COVER or not (after.finite and before.finite):
+        return math.nan  # NaN or infinity in either image: the weighted sum is NaN
     walls, _, _ = after.walls()
     _, wall_coherent, wall_cos, wall_sin = after.wall_orientation()
     _, contour_coherent, contour_cos, contour_sin = before.contours(contour_sigma)
@@ -520,6 +554,8 @@ def edge_enhancement(original, rendered) -> float:
 
 
 def _edge_enhancement(before: _Maps, after: _Maps) -> float:
+    if not (after.finite and before.finite):
+        return math.nan  # NaN or infinity in either image: so is the correlation
     energy_after, total_after = after.energy()
     energy_before, total_before = before.energy()
     edges, edges_mean, edges_spread, edges_constant = before.edges()
@@ -535,7 +571,7 @@ def _edge_enhancement(before: _Maps, after: _Maps) -> float:
     if added_constant or edges_constant:
         return 0.0
     correlation = cross / math.sqrt(spread * edges_spread)
-    return float(min(1.0, max(-1.0, correlation)))
+    return min(1.0, max(-1.0, correlation)) if not math.isnan(correlation) else math.nan
 
 
 # --- every metric at once -------------------------------------------------------------------
