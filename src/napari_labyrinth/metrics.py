@@ -144,18 +144,69 @@ class _ContentCache:
         return value
 
 
+class _Pool:
+    """Arrays handed back by the maps of renderings that are done, for the next ones.
+
+    A fresh array costs its page faults (a pass writes about 45 bytes a
+    pixel of new maps); a stack's passes have the same shape. Thread-safe;
+    keeps at most ``size`` bytes.
+    """
+
+    def __init__(self, size: int = 256 * 2**20):
+        self._size = size
+        self._arrays: dict[tuple, list[np.ndarray]] = {}
+        self._lock = threading.Lock()
+
+    def take(self, shape: tuple, dtype) -> np.ndarray:
+        key = (tuple(shape), np.dtype(dtype).str)
+        with self._lock:
+            arrays = self._arrays.get(key)
+            if arrays:
+                return arrays.pop()
+        return np.empty(shape, dtype=dtype)
+
+    def give(self, arrays) -> None:
+        with self._lock:
+            kept = sum(a.nbytes for v in self._arrays.values() for a in v)
+            for array in arrays:
+                if kept + array.nbytes > self._size or array.base is not None:
+                    continue
+                array.flags.writeable = True
+                self._arrays.setdefault((array.shape, array.dtype.str), []).append(array)
+                kept += array.nbytes
+
+
 class _Maps:
     """The maps of one float64 plane, each computed on first use, once (thread-safe).
 
     ``plane`` must not change while the object is in use: callers pass a
-    private copy or a plane that lives only for the call.
+    private copy or a plane that lives only for the call. With a ``pool``,
+    the maps' arrays come from it and :meth:`release` gives them back.
     """
 
-    def __init__(self, plane: np.ndarray, workers: int | None = None):
+    def __init__(self, plane: np.ndarray, workers: int | None = None, pool: _Pool | None = None):
         self.plane = plane
         self.workers = workers
+        self._pool = pool
+        self._taken: list[np.ndarray] = []
         self._lock = threading.RLock()
         self._values: dict[str, Any] = {}
+
+    def _empty(self, dtype=np.float64) -> np.ndarray:
+        """A new plane-shaped array (from the pool, if any)."""
+        if self._pool is None:
+            return np.empty(self.plane.shape, dtype=dtype)
+        array = self._pool.take(self.plane.shape, dtype)
+        self._taken.append(array)
+        return array
+
+    def release(self) -> None:
+        """Give the maps' arrays back to the pool; the object must not be used afterwards."""
+        if self._pool is not None:
+            with self._lock:
+                self._values.clear()
+                self._pool.give(self._taken)
+                self._taken = []
 
     def _get(self, name: str, compute: Callable[[], Any]):
         with self._lock:
@@ -173,8 +224,8 @@ class _Maps:
 
     def _fine(self) -> _Fine:
         def compute():
-            fine = np.empty_like(self.plane)
-            fine32 = np.empty(self.plane.shape, dtype=np.float32)
+            fine = self._empty()
+            fine32 = self._empty(np.float32)
             sums = self._row_sums(4)
             self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine, fine32, sums)
             largest_square = float(sums[:, 1].max())
@@ -213,8 +264,8 @@ class _Maps:
         """The wall map, the energy ``G_2 * h**2`` and the energy's sum."""
 
         def compute():
-            energy = np.empty_like(self.plane)
-            walls = np.empty(self.plane.shape, dtype=bool)
+            energy = self._empty()
+            walls = self._empty(bool)
             results, total = self._smooth(_kernels().MODE_WALLS, energy, walls)
             self.exact_decisions = sum(r[1] for r in results)
             return _frozen(walls), _frozen(energy), total
@@ -229,7 +280,7 @@ class _Maps:
                 return energy, total
 
         def compute():
-            energy = np.empty_like(self.plane)
+            energy = self._empty()
             _, total = self._smooth(_kernels().MODE_ENERGY, energy, np.empty((1, 1), bool))
             return _frozen(energy), total
 
@@ -243,7 +294,7 @@ class _Maps:
         """``g > G_2 * g``: where the plane is above its local mean."""
 
         def compute():
-            positive = np.empty(self.plane.shape, dtype=bool)
+            positive = self._empty(bool)
             self._smooth(_kernels().MODE_LOCAL_MEAN, np.empty((1, 1)), positive)
             return _frozen(positive)
 
@@ -258,7 +309,9 @@ class _Maps:
         def compute():
             fine = self._fine()
             scale = _float32_scale(math.sqrt(fine.largest_square))
-            return _derived_orientation(fine.fine, scale, WINDOW_SIGMA, self.workers, self.walls()[0])
+            return _derived_orientation(
+                fine.fine, scale, WINDOW_SIGMA, self.workers, self.walls()[0], self._empty
+            )
 
         return self._get("wall_orientation", compute)
 
@@ -267,7 +320,7 @@ class _Maps:
 
         def compute():
             scale = _float32_scale(self._fine().largest_tone)
-            return _derived_orientation(self.plane, scale, sigma, self.workers)
+            return _derived_orientation(self.plane, scale, sigma, self.workers, None, self._empty)
 
         return self._get(("contours", float(sigma)), compute)
 
@@ -276,7 +329,7 @@ class _Maps:
 
         def compute():
             kernels = _kernels()
-            edges = np.empty_like(self.plane)
+            edges = self._empty()
             sums = self._row_sums(3)
             self._bands(kernels.sobel_band, self.plane, edges, sums)
             mean = math.fsum(sums[:, 2]) / edges.size
@@ -328,13 +381,16 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     return array
 
 
-def _orientation_maps(plane, scale, sigma, mode, workers, count, walls=None):
+def _orientation_maps(plane, scale, sigma, mode, workers, count, walls=None, empty=None):
     """Structure-tensor maps of ``plane * scale`` (see ``_metrics_kernels.orientation_band``).
 
     With ``walls``, only the pixels of the walls are sure to be computed.
+    ``empty(dtype)`` gives the output arrays.
     """
     kernels = _kernels()
-    outputs = [np.empty(plane.shape, dtype=np.float32) for _ in range(4)]
+    if empty is None:
+        empty = lambda dtype: np.empty(plane.shape, dtype=dtype)  # noqa: E731
+    outputs = [empty(np.float32) for _ in range(4)]
     use_walls = walls is not None
     walls = walls if use_walls else np.zeros((1, 1), dtype=bool)
     _in_bands(
@@ -344,8 +400,9 @@ def _orientation_maps(plane, scale, sigma, mode, workers, count, walls=None):
     return tuple(_frozen(output) for output in outputs[:count])
 
 
-def _derived_orientation(plane, scale, sigma, workers, walls=None):
-    return _orientation_maps(plane, scale, sigma, _kernels().TENSOR_DERIVED, workers, 4, walls)
+def _derived_orientation(plane, scale, sigma, workers, walls=None, empty=None):
+    kernels = _kernels()
+    return _orientation_maps(plane, scale, sigma, kernels.TENSOR_DERIVED, workers, 4, walls, empty)
 
 
 # --- the maps of renderings, shared between the single metrics ---------------------------
@@ -604,6 +661,7 @@ class Comparison:
     def __init__(self, original, *, workers: int | None = None):
         self._maps = _Maps(_float_plane(_plane(original, "original"), copy=True), workers)
         self.workers = workers
+        self._pool = _Pool()
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -618,16 +676,23 @@ class Comparison:
         """
         after_array = _plane(rendered, "rendered")
         _same_shape(self._maps.plane, after_array)
-        return self._steps(_Maps(_float_plane(after_array, copy=True), self.workers))
+        plane = self._pool.take(after_array.shape, np.float64)
+        np.copyto(plane, after_array, casting="unsafe")  # real dtypes: exact in float64
+        after = _Maps(plane, self.workers, self._pool)
+        after._taken.append(plane)
+        return self._steps(after)
 
     def _steps(self, after: _Maps) -> Iterator[tuple[str, float]]:
         before = self._maps
-        yield "texture_added", _texture_added(before, after)
-        yield "labyrinth_cover", after.cover()
-        yield "wall_width", _wall_width(after)
-        yield "orientation_coherence", _orientation_coherence(after)
-        yield "contour_alignment", _contour_alignment(before, after)
-        yield "edge_enhancement", _edge_enhancement(before, after)
+        try:
+            yield "texture_added", _texture_added(before, after)
+            yield "labyrinth_cover", after.cover()
+            yield "wall_width", _wall_width(after)
+            yield "orientation_coherence", _orientation_coherence(after)
+            yield "contour_alignment", _contour_alignment(before, after)
+            yield "edge_enhancement", _edge_enhancement(before, after)
+        finally:
+            after.release()  # its arrays serve the next rendering
 
     def describe(self, rendered) -> dict[str, float]:
         """Every metric of ``rendered``, as a dict of floats in the order of :data:`METRICS`."""
