@@ -94,6 +94,14 @@ def _finite_range(values):
 
 
 @njit(cache=True, nogil=True)
+def _any_above(values, threshold):
+    for x in range(values.shape[0]):
+        if values[x] > threshold:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
 def _reflect(i, n):
     """Index of virtual position ``i`` of a line of ``n`` under scipy's ``reflect``."""
     period = 2 * n
@@ -269,11 +277,14 @@ def _source_row(fine, plane, mode, dy, dx, half, row, s0, s1, out):
 
 
 @njit(cache=True, nogil=True)
-def _smooth_block(fine, plane, mode, dy, dx, half, weights, b0, b1, x0, x1, ring, column, ext, result):
+def _smooth_block(
+    fine, plane, mode, dy, dx, half, weights, b0, b1, x0, x1, ring, column, ext, result, needed
+):  # fmt: skip
     """``result[y - b0, x - x0]`` = Gaussian of one source map on rows ``[b0, b1)``, columns ``[x0, x1)``.
 
     The source rows (:func:`_source_row`) go through a ring buffer of
-    ``2 r + 1`` rows; axis 0 first, then axis 1, ``reflect`` on both.
+    ``2 r + 1`` rows; axis 0 first, then axis 1, ``reflect`` on both. Rows y
+    with ``needed[y - b0]`` False are left as they were.
     """
     height, width = fine.shape
     radius = weights.shape[0] - 1
@@ -292,6 +303,8 @@ def _smooth_block(fine, plane, mode, dy, dx, half, weights, b0, b1, x0, x1, ring
     for y in range(b0, b1):
         v = y + radius
         _source_row(fine, plane, mode, dy, dx, half, _reflect(v, height), s0, s1, rows[v % ring_rows])
+        if not needed[y - b0]:
+            continue
         for j in range(radius + 1):
             lower[j] = (y - j) % ring_rows
             upper[j] = (y + j) % ring_rows
@@ -364,6 +377,7 @@ def smooth_band(
     column = np.empty(span)
     ext = np.empty(span)
     result = np.empty((Y_BLOCK, X_TILE))
+    every_row = np.ones(Y_BLOCK, dtype=np.bool_)
     count = 0
     exact = 0
     half = 0.5
@@ -372,7 +386,10 @@ def smooth_band(
             x1 = min(width, x0 + X_TILE)
             for b0 in range(y0, y1, Y_BLOCK):
                 b1 = min(y1, b0 + Y_BLOCK)
-                _smooth_block(plane, plane, mode, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext, result)
+                _smooth_block(
+                    plane, plane, mode, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext,
+                    result, every_row,
+                )  # fmt: skip
                 for y in range(b0, b1):
                     source = plane[y, x0:x1]
                     mean = result[y - b0]
@@ -392,7 +409,10 @@ def smooth_band(
         x1 = min(width, x0 + X_TILE)
         for b0 in range(e0, e1, Y_BLOCK):
             b1 = min(e1, b0 + Y_BLOCK)
-            _smooth_block(fine, plane, MODE_ENERGY, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext, result)
+            _smooth_block(
+                fine, plane, MODE_ENERGY, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext,
+                result, every_row,
+            )  # fmt: skip
             for y in range(b0, b1):
                 row = _energy_row(energy, halo, e0, y0, y1, y)
                 row[x0:x1] = result[y - b0, : x1 - x0]
@@ -404,6 +424,7 @@ def smooth_band(
     column32 = np.empty(span, dtype=np.float32)
     ext32 = np.empty(span, dtype=np.float32)
     lags = np.empty((13, LAG_BLOCK, X_TILE), dtype=np.float32)
+    textured = np.empty(LAG_BLOCK, dtype=np.bool_)
     inverse = np.empty((LAG_BLOCK, X_TILE))
     margins = np.empty((LAG_BLOCK, X_TILE))
     half32 = np.float32(0.5)
@@ -412,10 +433,18 @@ def smooth_band(
         tile = x1 - x0
         for b0 in range(y0, y1, LAG_BLOCK):
             b1 = min(y1, b0 + LAG_BLOCK)
+            # rows of the tile with no pixel above the energy floor have no wall: skipped
+            any_textured = False
+            for y in range(b0, b1):
+                textured[y - b0] = _any_above(energy[y, x0:x1], energy_floor2)
+                any_textured = any_textured or textured[y - b0]
+            if not any_textured:
+                flags[b0:b1, x0:x1] = False
+                continue
             for m in range(1, 13):
                 _smooth_block(
                     fine32, plane, MODE_WALLS, LAG_DY[m], LAG_DX[m], half32, weights32, b0, b1,
-                    x0, x1, ring32, column32, ext32, lags[m],
+                    x0, x1, ring32, column32, ext32, lags[m], textured,
                 )  # fmt: skip
             _margins(energy, halo, e0, y0, y1, b0, b1, x0, x1, largest_square, inverse, margins)
             for y in range(b0, b1):
