@@ -13,6 +13,9 @@ Tolerances, and why:
 - ``orientation_coherence`` and ``contour_alignment``: relative 1e-5 (the
   structure tensors are float32, about 1e-7 each; the weighted means move by
   about 1e-8).
+
+NaN and infinite pixels give the reference's NaN metrics (texture added,
+coherence, alignment and edge enhancement), and the wall metrics of the rest.
 """
 
 import math
@@ -94,6 +97,12 @@ def _cases():
     strided = labyrinth(camera, seed=8)[::3, ::2]
     cases.append(("strided view", camera[::3, ::2], strided))
     cases.append(("transposed view", camera[:200, :150].T, labyrinth(camera[:200, :150], seed=9).T))
+    scaled = labyrinth(camera[:160, :140], seed=10).astype(float)
+    for factor in (1e-30, 1e30):  # float32 would overflow or lose its digits unscaled
+        cases.append((f"times {factor:g}", camera[:160, :140] * factor, scaled * factor))
+    holes = camera[:160, :140].astype(float), scaled.copy()
+    holes[0][80, 70] = holes[1][80, 70] = np.nan  # NaN pixels stay NaN through a rendering
+    cases.append(("a NaN pixel", *holes))
     for shape in ((3, 3), (5, 7), (9, 17), (20, 4)):
         tiny = rng.integers(0, 256, shape).astype(np.uint8)
         cases.append((f"{shape[0]} x {shape[1]}", tiny, np.flipud(tiny).copy()))
@@ -131,6 +140,7 @@ def test_every_metric_agrees_with_the_previous_implementation(name, original, re
 @pytest.mark.parametrize(("name", "original", "rendered"), CASES, ids=IDS)
 def test_the_maps_are_the_reference_maps(name, original, rendered):
     np.testing.assert_array_equal(metrics.fine_scale(rendered), reference.fine_scale(rendered))
+    np.testing.assert_array_equal(metrics.fine_scale(original), reference.fine_scale(original))
     np.testing.assert_array_equal(metrics.wall_map(rendered), reference.wall_map(rendered))
 
 

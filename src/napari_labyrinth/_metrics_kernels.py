@@ -58,6 +58,50 @@ def gaussian_weights(sigma: float, truncate: float = 4.0) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True)
+def _sum(values):
+    """Sum of a line: eight interleaved partial sums (independent chains), then those."""
+    n = values.shape[0]
+    a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
+    end = n - n % 8
+    for x in range(0, end, 8):
+        a0 += values[x]
+        a1 += values[x + 1]
+        a2 += values[x + 2]
+        a3 += values[x + 3]
+        a4 += values[x + 4]
+        a5 += values[x + 5]
+        a6 += values[x + 6]
+        a7 += values[x + 7]
+    for x in range(end, n):
+        a0 += values[x]
+    return ((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7))
+
+
+@njit(cache=True, nogil=True)
+def _finite_range(values):
+    """Smallest and largest finite value of a line (inf, -inf if none) and the count of others."""
+    low = np.inf
+    high = -np.inf
+    others = 0
+    for x in range(values.shape[0]):
+        value = values[x]
+        if abs(value) < np.inf:
+            low = min(low, value)
+            high = max(high, value)
+        else:
+            others += 1
+    return low, high, others
+
+
+@njit(cache=True, nogil=True)
+def _any_above(values, threshold):
+    for x in range(values.shape[0]):
+        if values[x] > threshold:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
 def _reflect(i, n):
     """Index of virtual position ``i`` of a line of ``n`` under scipy's ``reflect``."""
     period = 2 * n
@@ -153,7 +197,9 @@ def _extend(line, radius, ext):
 def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
     """``fine = plane - G * plane`` on rows ``[y0, y1)``, and its float32 copy ``fine32``.
 
-    ``sums[y]`` gets the sum and the largest value of ``fine[y]**2``.
+    ``sums[y]`` gets, over row y: the sum and the largest finite value of
+    ``fine**2``, the count of non-finite values of ``fine`` and the largest
+    finite ``|plane|``.
     """
     width = plane.shape[1]
     radius = weights.shape[0] - 1
@@ -172,17 +218,19 @@ def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
         row = plane[y]
         out = fine[y]
         out32 = fine32[y]
-        total = 0.0
-        largest = 0.0
         for x in range(width):
             value = row[x] - smooth[x]
             out[x] = value
             out32[x] = value
-            square = value * value
-            total += square
-            largest = max(largest, square)
-        sums[y, 0] = total
-        sums[y, 1] = largest
+        for x in range(width):
+            smooth[x] = out[x] * out[x]
+        sums[y, 0] = _sum(smooth)
+        _, largest, nonfinite = _finite_range(smooth)
+        sums[y, 1] = max(largest, 0.0)
+        sums[y, 2] = nonfinite
+        for x in range(width):
+            smooth[x] = abs(row[x])
+        sums[y, 3] = max(_finite_range(smooth)[1], 0.0)
 
 
 @njit(cache=True, nogil=True)
@@ -229,11 +277,14 @@ def _source_row(fine, plane, mode, dy, dx, half, row, s0, s1, out):
 
 
 @njit(cache=True, nogil=True)
-def _smooth_block(fine, plane, mode, dy, dx, half, weights, b0, b1, x0, x1, ring, column, ext, result):
+def _smooth_block(
+    fine, plane, mode, dy, dx, half, weights, b0, b1, x0, x1, ring, column, ext, result, needed
+):  # fmt: skip
     """``result[y - b0, x - x0]`` = Gaussian of one source map on rows ``[b0, b1)``, columns ``[x0, x1)``.
 
     The source rows (:func:`_source_row`) go through a ring buffer of
-    ``2 r + 1`` rows; axis 0 first, then axis 1, ``reflect`` on both.
+    ``2 r + 1`` rows; axis 0 first, then axis 1, ``reflect`` on both. Rows y
+    with ``needed[y - b0]`` False are left as they were.
     """
     height, width = fine.shape
     radius = weights.shape[0] - 1
@@ -252,6 +303,8 @@ def _smooth_block(fine, plane, mode, dy, dx, half, weights, b0, b1, x0, x1, ring
     for y in range(b0, b1):
         v = y + radius
         _source_row(fine, plane, mode, dy, dx, half, _reflect(v, height), s0, s1, rows[v % ring_rows])
+        if not needed[y - b0]:
+            continue
         for j in range(radius + 1):
             lower[j] = (y - j) % ring_rows
             upper[j] = (y + j) % ring_rows
@@ -287,6 +340,7 @@ def smooth_band(
     along_threshold,
     alternation_threshold,
     largest_square,
+    lag_scale,
     energy,
     flags,
     sums,
@@ -302,7 +356,9 @@ def smooth_band(
 
     The energy and the local mean are scipy's Gaussian (``reflect``, axis 0
     then axis 1, the same operations in the same order: the same floats).
-    The 12 lag products are smoothed in float32 from ``fine32``; their
+    The 12 lag products are smoothed in float32 from ``fine32`` (``h`` times
+    a power of two whose square is ``1 / lag_scale``, to keep float32 away
+    from overflow); their
     correlations ``C = S / E`` decide the wall map wherever they are
     farther from the thresholds than the float32 error can reach, a bound
     ``FLOAT32_ERROR * B / E`` with ``B >= G * |product|`` (:func:`_margins`); the other
@@ -321,6 +377,7 @@ def smooth_band(
     column = np.empty(span)
     ext = np.empty(span)
     result = np.empty((Y_BLOCK, X_TILE))
+    every_row = np.ones(Y_BLOCK, dtype=np.bool_)
     count = 0
     exact = 0
     half = 0.5
@@ -329,7 +386,10 @@ def smooth_band(
             x1 = min(width, x0 + X_TILE)
             for b0 in range(y0, y1, Y_BLOCK):
                 b1 = min(y1, b0 + Y_BLOCK)
-                _smooth_block(plane, plane, mode, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext, result)
+                _smooth_block(
+                    plane, plane, mode, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext,
+                    result, every_row,
+                )  # fmt: skip
                 for y in range(b0, b1):
                     source = plane[y, x0:x1]
                     mean = result[y - b0]
@@ -339,32 +399,32 @@ def smooth_band(
                         out[i] = above_mean
                         count += above_mean
         return count, exact
-    # the energy, on the band and (for the bound) EDGE // 3 rows on each side
-    reach = 4  # the longest lag
+    # the energy of the band, and (for the bound) of the 4 rows on each side (the longest
+    # lag), which belong to the neighbouring bands: in ``halo`` (rows e0 + k and y1 + k)
+    reach = 4
     e0 = max(0, y0 - reach) if mode == MODE_WALLS else y0
     e1 = min(height, y1 + reach) if mode == MODE_WALLS else y1
-    band_energy = np.empty((e1 - e0, width))
+    halo = np.empty((2 * reach, width))
     for x0 in range(0, width, X_TILE):
         x1 = min(width, x0 + X_TILE)
         for b0 in range(e0, e1, Y_BLOCK):
             b1 = min(e1, b0 + Y_BLOCK)
-            _smooth_block(fine, plane, MODE_ENERGY, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext, result)
+            _smooth_block(
+                fine, plane, MODE_ENERGY, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext,
+                result, every_row,
+            )  # fmt: skip
             for y in range(b0, b1):
-                band_energy[y - e0, x0:x1] = result[y - b0, : x1 - x0]
+                row = _energy_row(energy, halo, e0, y0, y1, y)
+                row[x0:x1] = result[y - b0, : x1 - x0]
     for y in range(y0, y1):
-        row = band_energy[y - e0]
-        out_energy = energy[y]
-        total = 0.0
-        for x in range(width):
-            out_energy[x] = row[x]
-            total += row[x]
-        sums[y, 0] = total
+        sums[y, 0] = _sum(energy[y])
     if mode == MODE_ENERGY:
         return count, exact
     ring32 = np.empty((2 * radius + 1, span), dtype=np.float32)
     column32 = np.empty(span, dtype=np.float32)
     ext32 = np.empty(span, dtype=np.float32)
     lags = np.empty((13, LAG_BLOCK, X_TILE), dtype=np.float32)
+    textured = np.empty(LAG_BLOCK, dtype=np.bool_)
     inverse = np.empty((LAG_BLOCK, X_TILE))
     margins = np.empty((LAG_BLOCK, X_TILE))
     half32 = np.float32(0.5)
@@ -373,14 +433,22 @@ def smooth_band(
         tile = x1 - x0
         for b0 in range(y0, y1, LAG_BLOCK):
             b1 = min(y1, b0 + LAG_BLOCK)
+            # rows of the tile with no pixel above the energy floor have no wall: skipped
+            any_textured = False
+            for y in range(b0, b1):
+                textured[y - b0] = _any_above(energy[y, x0:x1], energy_floor2)
+                any_textured = any_textured or textured[y - b0]
+            if not any_textured:
+                flags[b0:b1, x0:x1] = False
+                continue
             for m in range(1, 13):
                 _smooth_block(
                     fine32, plane, MODE_WALLS, LAG_DY[m], LAG_DX[m], half32, weights32, b0, b1,
-                    x0, x1, ring32, column32, ext32, lags[m],
+                    x0, x1, ring32, column32, ext32, lags[m], textured,
                 )  # fmt: skip
-            _margins(band_energy, e0, height, b0, b1, x0, x1, largest_square, inverse, margins)
+            _margins(energy, halo, e0, y0, y1, b0, b1, x0, x1, largest_square, inverse, margins)
             for y in range(b0, b1):
-                row_energy = band_energy[y - e0, x0:x1]
+                row_energy = energy[y, x0:x1]
                 row_inverse = inverse[y - b0]
                 row_margin = margins[y - b0]
                 out = flags[y, x0:x1]
@@ -389,7 +457,7 @@ def smooth_band(
                     wall = False
                     if e > energy_floor2:
                         decided, wall = _decide(
-                            lags, y - b0, i, np.float64(row_inverse[i]), row_margin[i],
+                            lags, y - b0, i, row_inverse[i] * lag_scale, row_margin[i],
                             along_threshold, alternation_threshold,
                         )  # fmt: skip
                         if not decided:
@@ -416,14 +484,24 @@ def _compare(c, threshold, margin):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _margins(band_energy, e0, height, b0, b1, x0, x1, largest_square, inverse, margins):
+def _energy_row(energy, halo, e0, y0, y1, y):
+    """Row y of the energy: the band's own rows ``[y0, y1)`` or the halo's."""
+    if y < y0:
+        return halo[y - e0]
+    if y >= y1:
+        return halo[halo.shape[0] // 2 + y - y1]
+    return energy[y]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _margins(energy, halo, e0, y0, y1, b0, b1, x0, x1, largest_square, inverse, margins):
     """``1 / E`` and the float32 error bound of the correlations, for a block.
 
     ``G * |product| <= E(p) / 2 + max(E(p + d), E(p - d)) / 2`` away from the
     edges, bounded over every lag (|dy|, |dx| <= 4) by the largest energy of
     the 9 x 9 neighbourhood; ``<= E(p) / 2 + max(h**2) / 2`` everywhere.
     """
-    width = band_energy.shape[1]
+    height, width = energy.shape
     reach = 4
     tile = x1 - x0
     lo = max(0, x0 - reach)
@@ -436,16 +514,16 @@ def _margins(band_energy, e0, height, b0, b1, x0, x1, largest_square, inverse, m
     for y in range(b0, b1):
         row_inverse = inverse[y - b0]
         row_margin = margins[y - b0]
-        energy_row = band_energy[y - e0, x0:x1]
+        energy_row = energy[y, x0:x1]
         for i in range(tile):
             row_inverse[i] = 1.0 / energy_row[i]
             largest[i] = largest_square
         if y >= EDGE and y < height - EDGE and i1 > i0:
-            first = band_energy[y - reach - e0, lo:hi]
+            first = _energy_row(energy, halo, e0, y0, y1, y - reach)[lo:hi]
             for k in range(hi - lo):
                 column_max[k] = first[k]
             for j in range(1 - reach, reach + 1):
-                other = band_energy[y + j - e0, lo:hi]
+                other = _energy_row(energy, halo, e0, y0, y1, y + j)[lo:hi]
                 for k in range(hi - lo):
                     column_max[k] = max(column_max[k], other[k])
             inner = largest[i0:i1]
@@ -577,14 +655,15 @@ TENSOR_RING_BYTES = 256 * 1024
 
 
 @njit(cache=True, nogil=True)
-def _doubled_row(plane, i, origin, line, even, odd):
+def _doubled_row(plane, scale, i, origin, line, even, odd):
     """Row ``i`` of ``zoom(plane, 2, order=1, grid_mode=True, mode="nearest")``, split by parity.
 
     ``even[k]`` and ``odd[k]`` get the doubled columns 2 X and 2 X + 1 for
     X = ``origin + k``; zero where X is outside the plane (the structure
     tensor's ``constant`` padding). Doubled pixel 2 k samples the plane at
     k - 1/4 and 2 k + 1 at k + 1/4: weights 1/4 and 3/4, clamped at the edges.
-    ``line`` is scratch space as long as ``even``.
+    ``line`` is scratch space as long as ``even``. Values are multiplied by
+    ``scale`` (a power of two: exact) to keep float32 products in range.
     """
     height, width = plane.shape
     n = even.shape[0]
@@ -608,11 +687,11 @@ def _doubled_row(plane, i, origin, line, even, odd):
     lo = origin + j0
     hi = origin + j1
     for x in range(lo, hi):
-        line[x - lo + 1] = 0.75 * near[x] + 0.25 * far[x]
+        line[x - lo + 1] = (0.75 * near[x] + 0.25 * far[x]) * scale
     left = max(lo - 1, 0)
     right = min(hi, width - 1)
-    line[0] = 0.75 * near[left] + 0.25 * far[left]
-    line[hi - lo + 1] = 0.75 * near[right] + 0.25 * far[right]
+    line[0] = (0.75 * near[left] + 0.25 * far[left]) * scale
+    line[hi - lo + 1] = (0.75 * near[right] + 0.25 * far[right]) * scale
     count = j1 - j0
     _interpolate(line[:count], line[1 : count + 1], 0.25, 0.75, even[j0:j1])
     _interpolate(line[1 : count + 1], line[2 : count + 2], 0.75, 0.25, odd[j0:j1])
@@ -725,7 +804,7 @@ def _phase_pair(line_e, line_o, pad, n, t):
 
 
 @njit(cache=True, nogil=True)
-def _tensor_tile(plane, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3):
+def _tensor_tile(plane, scale, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3):
     """:func:`orientation_band` on the output columns ``[x0, x1)``."""
     height, width = plane.shape
     doubled_height = 2 * height
@@ -778,7 +857,7 @@ def _tensor_tile(plane, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, o
                     continue
                 slot = r % 3
                 if row_of_slot[slot] != r:
-                    _doubled_row(plane, r, origin, line, rows_e[slot], rows_o[slot])
+                    _doubled_row(plane, scale, r, origin, line, rows_e[slot], rows_o[slot])
                     row_of_slot[slot] = r
                 slots[k] = slot
             _tensor_products(
@@ -835,7 +914,7 @@ def _derive(rr, rc, cc, strength, coherent, cosine, sine):
 
 
 @njit(cache=True, nogil=True)
-def orientation_band(plane, weights, mode, walls, use_walls, out0, out1, out2, out3, y0, y1):
+def orientation_band(plane, scale, weights, mode, walls, use_walls, out0, out1, out2, out3, y0, y1):
     """Structure tensor of ``zoom(plane, 2)`` at the even doubled pixels of rows ``[y0, y1)``.
 
     ``skimage.feature.structure_tensor(doubled, sigma, order="rc")[::2, ::2]``:
@@ -844,7 +923,9 @@ def orientation_band(plane, weights, mode, walls, use_walls, out0, out1, out2, o
     computed (the Gaussian's passes at even columns, then at even rows).
     ``mode`` TENSOR_COMPONENTS writes jrr, jrc, jcc to ``out0..out2``;
     TENSOR_DERIVED writes the strength ``l1 + l2``, coherence times strength,
-    and cos, sin of twice the angle to ``out0..out3``. With ``use_walls``,
+    and cos, sin of twice the angle to ``out0..out3``. The plane is first
+    multiplied by ``scale``, a power of two (the strengths by its square).
+    With ``use_walls``,
     only rows of column tiles that hold a True pixel of ``walls`` are
     computed (the other pixels of the outputs are left as they were).
     """
@@ -857,7 +938,9 @@ def orientation_band(plane, weights, mode, walls, use_walls, out0, out1, out2, o
     for k in range(count):
         x0 = (k * width) // count
         x1 = ((k + 1) * width) // count
-        _tensor_tile(plane, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3)
+        _tensor_tile(
+            plane, scale, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3
+        )
 
 
 # --- reductions --------------------------------------------------------------------------
@@ -868,46 +951,52 @@ def sobel_band(plane, out, sums, y0, y1):
     """``skimage.filters.sobel`` (``reflect``) on rows ``[y0, y1)``; ``sums[y]``: min, max, sum."""
     height, width = plane.shape
     root2 = np.sqrt(2.0)
+    padded = np.empty((3, width + 2))  # rows y - 1, y, y + 1 with one reflected column a side
+    rows = np.empty(width)
+    columns = np.empty(width)
     for y in range(y0, y1):
-        low = np.inf
-        high = -np.inf
-        total = 0.0
-        up = plane[_reflect(y - 1, height)]
-        mid = plane[y]
-        down = plane[_reflect(y + 1, height)]
+        for k in range(3):
+            source = plane[_reflect(y - 1 + k, height)]
+            line = padded[k]
+            for x in range(width):
+                line[x + 1] = source[x]
+            line[0] = source[_reflect(-1, width)]
+            line[width + 1] = source[_reflect(width, width)]
+        _sobel_rows(padded[0], padded[1], padded[2], rows, columns)
+        row = out[y]
         for x in range(width):
-            left = x - 1 if x > 0 else _reflect(x - 1, width)
-            right = x + 1 if x + 1 < width else _reflect(x + 1, width)
-            rows = (down[left] + 2.0 * down[x] + down[right]) - (up[left] + 2.0 * up[x] + up[right])
-            columns = (up[right] + 2.0 * mid[right] + down[right]) - (
-                up[left] + 2.0 * mid[left] + down[left]
-            )
-            rows *= 0.25
-            columns *= 0.25
-            value = np.sqrt(rows * rows + columns * columns) / root2
-            out[y, x] = value
-            low = min(low, value)
-            high = max(high, value)
-            total += value
+            row[x] = np.sqrt(rows[x] * rows[x] + columns[x] * columns[x]) / root2
+        low, high, _ = _finite_range(row)
         sums[y, 0] = low
         sums[y, 1] = high
-        sums[y, 2] = total
+        sums[y, 2] = _sum(row)
+
+
+@njit(cache=True, nogil=True)
+def _sobel_rows(up, mid, down, rows, columns):
+    """The two Sobel derivatives (skimage's weights 1 2 1 / 4) of a row, from padded rows."""
+    for x in range(rows.shape[0]):
+        rows[x] = 0.25 * ((down[x] + 2.0 * down[x + 1] + down[x + 2]) - (up[x] + 2.0 * up[x + 1] + up[x + 2]))
+    for x in range(rows.shape[0]):
+        columns[x] = 0.25 * (
+            (up[x + 2] + 2.0 * mid[x + 2] + down[x + 2]) - (up[x] + 2.0 * mid[x] + down[x])
+        )
 
 
 @njit(cache=True, nogil=True)
 def centred_sums(first, second, first_mean, second_mean, sums, y0, y1):
     """``sums[y]``: the sums of ``(a - ma)**2`` and of ``(b - mb)**2`` over row y."""
     width = first.shape[1]
+    squares = np.empty(width)
     for y in range(y0, y1):
-        first_total = 0.0
-        second_total = 0.0
+        a = first[y]
+        b = second[y]
         for x in range(width):
-            a = first[y, x] - first_mean
-            b = second[y, x] - second_mean
-            first_total += a * a
-            second_total += b * b
-        sums[y, 0] = first_total
-        sums[y, 1] = second_total
+            squares[x] = (a[x] - first_mean) * (a[x] - first_mean)
+        sums[y, 0] = _sum(squares)
+        for x in range(width):
+            squares[x] = (b[x] - second_mean) * (b[x] - second_mean)
+        sums[y, 1] = _sum(squares)
 
 
 @njit(cache=True, nogil=True)
@@ -916,15 +1005,18 @@ def added_edge_sums(after, before, edges, added_mean, edges_mean, sums, y0, y1):
     ``sum((a - ma)(s - ms))``, ``sum((a - ma)**2)``, min(a), max(a)."""
     width = after.shape[1]
     for y in range(y0, y1):
+        a = after[y]
+        b = before[y]
+        s = edges[y]
         cross = 0.0
         spread = 0.0
         low = np.inf
         high = -np.inf
         for x in range(width):
-            added = after[y, x] - before[y, x]
-            a = added - added_mean
-            cross += a * (edges[y, x] - edges_mean)
-            spread += a * a
+            added = a[x] - b[x]
+            centred = added - added_mean
+            cross += centred * (s[x] - edges_mean)
+            spread += centred * centred
             low = min(low, added)
             high = max(high, added)
         sums[y, 0] = cross
@@ -942,22 +1034,33 @@ def wall_pair_counts(walls, positive, y0, y1):
     for k in range(4):
         dy = FAMILIES[k][0]
         dx = FAMILIES[k][1]
+        lo = max(0, -dx)  # x + dx inside the row for x in [lo, hi)
+        hi = min(width, width - dx)
         for y in range(y0, y1):
-            wall_row = walls[y]
-            sign_row = positive[y]
-            next_walls = walls[(y + dy) % height]
-            next_signs = positive[(y + dy) % height]
-            both = 0
-            flips = 0
-            for x in range(width):
-                if wall_row[x]:
-                    xn = (x + dx) % width
-                    if next_walls[xn]:
-                        both += 1
-                        flips += sign_row[x] != next_signs[xn]
+            ahead = (y + dy) % height
+            both, flips = _pair_counts(
+                walls[y, lo:hi], walls[ahead, lo + dx : hi + dx],
+                positive[y, lo:hi], positive[ahead, lo + dx : hi + dx],
+            )  # fmt: skip
+            for x in list(range(0, lo)) + list(range(hi, width)):  # the wrapped ends
+                xn = (x + dx) % width
+                if walls[y, x] and walls[ahead, xn]:
+                    both += 1
+                    flips += positive[y, x] != positive[ahead, xn]
             counts[k, 0] += both
             counts[k, 1] += flips
     return counts
+
+
+@njit(cache=True, nogil=True)
+def _pair_counts(walls, next_walls, signs, next_signs):
+    both = 0
+    flips = 0
+    for x in range(walls.shape[0]):
+        pair = np.uint8(walls[x]) & np.uint8(next_walls[x])
+        both += pair
+        flips += pair & (np.uint8(signs[x]) ^ np.uint8(next_signs[x]))
+    return both, flips
 
 
 @njit(cache=True, nogil=True)

@@ -28,7 +28,7 @@ import threading
 from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -144,18 +144,69 @@ class _ContentCache:
         return value
 
 
+class _Pool:
+    """Arrays handed back by the maps of renderings that are done, for the next ones.
+
+    A fresh array costs its page faults (a pass writes about 45 bytes a
+    pixel of new maps); a stack's passes have the same shape. Thread-safe;
+    keeps at most ``size`` bytes.
+    """
+
+    def __init__(self, size: int = 256 * 2**20):
+        self._size = size
+        self._arrays: dict[tuple, list[np.ndarray]] = {}
+        self._lock = threading.Lock()
+
+    def take(self, shape: tuple, dtype) -> np.ndarray:
+        key = (tuple(shape), np.dtype(dtype).str)
+        with self._lock:
+            arrays = self._arrays.get(key)
+            if arrays:
+                return arrays.pop()
+        return np.empty(shape, dtype=dtype)
+
+    def give(self, arrays) -> None:
+        with self._lock:
+            kept = sum(a.nbytes for v in self._arrays.values() for a in v)
+            for array in arrays:
+                if kept + array.nbytes > self._size or array.base is not None:
+                    continue
+                array.flags.writeable = True
+                self._arrays.setdefault((array.shape, array.dtype.str), []).append(array)
+                kept += array.nbytes
+
+
 class _Maps:
     """The maps of one float64 plane, each computed on first use, once (thread-safe).
 
     ``plane`` must not change while the object is in use: callers pass a
-    private copy or a plane that lives only for the call.
+    private copy or a plane that lives only for the call. With a ``pool``,
+    the maps' arrays come from it and :meth:`release` gives them back.
     """
 
-    def __init__(self, plane: np.ndarray, workers: int | None = None):
+    def __init__(self, plane: np.ndarray, workers: int | None = None, pool: _Pool | None = None):
         self.plane = plane
         self.workers = workers
+        self._pool = pool
+        self._taken: list[np.ndarray] = []
         self._lock = threading.RLock()
         self._values: dict[str, Any] = {}
+
+    def _empty(self, dtype=np.float64) -> np.ndarray:
+        """A new plane-shaped array (from the pool, if any)."""
+        if self._pool is None:
+            return np.empty(self.plane.shape, dtype=dtype)
+        array = self._pool.take(self.plane.shape, dtype)
+        self._taken.append(array)
+        return array
+
+    def release(self) -> None:
+        """Give the maps' arrays back to the pool; the object must not be used afterwards."""
+        if self._pool is not None:
+            with self._lock:
+                self._values.clear()
+                self._pool.give(self._taken)
+                self._taken = []
 
     def _get(self, name: str, compute: Callable[[], Any]):
         with self._lock:
@@ -168,20 +219,30 @@ class _Maps:
 
     def fine(self) -> tuple[np.ndarray, float]:
         """``h = g - G_1 * g`` and ``sum(h**2)``."""
-        fine, _, total, _ = self._fine()
-        return fine, total
+        fine = self._fine()
+        return fine.fine, fine.total
 
-    def _fine(self) -> tuple[np.ndarray, np.ndarray, float, float]:
-        """``h``, ``h`` in float32, ``sum(h**2)`` and ``max(h**2)``."""
-
+    def _fine(self) -> _Fine:
         def compute():
-            fine = np.empty_like(self.plane)
-            fine32 = np.empty(self.plane.shape, dtype=np.float32)
-            sums = self._row_sums(2)
+            fine = self._empty()
+            fine32 = self._empty(np.float32)
+            sums = self._row_sums(4)
             self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine, fine32, sums)
-            return _frozen(fine), _frozen(fine32), math.fsum(sums[:, 0]), float(sums[:, 1].max())
+            largest_square = float(sums[:, 1].max())
+            scale = _float32_scale(math.sqrt(largest_square))
+            if scale != 1.0:  # h**2 would overflow (or lose its digits in) float32
+                fine32 = (fine * scale).astype(np.float32)
+            return _Fine(
+                _frozen(fine), _frozen(fine32), math.fsum(sums[:, 0]), largest_square,
+                1.0 / scale**2, not sums[:, 2].any(), float(sums[:, 3].max()),
+            )  # fmt: skip
 
         return self._get("fine", compute)
+
+    @property
+    def finite(self) -> bool:
+        """Whether ``h`` (so the plane) holds only finite values."""
+        return self._fine().finite
 
     def _row_sums(self, count: int) -> np.ndarray:
         """Per-row partial sums that kernels fill: the totals do not depend on the bands."""
@@ -190,12 +251,12 @@ class _Maps:
     def _smooth(self, mode, energy, flags) -> tuple[list, float]:
         """The kernel's results per band and the sum of the energy."""
         kernels = _kernels()
-        fine, fine32, _, largest = self._fine()
+        fine = self._fine()
         sums = self._row_sums(1)
         results = self._bands(
-            kernels.smooth_band, fine, fine32, self.plane, mode, _weights(WINDOW_SIGMA),
+            kernels.smooth_band, fine.fine, fine.fine32, self.plane, mode, _weights(WINDOW_SIGMA),
             _weights(WINDOW_SIGMA, np.float32), ENERGY_FLOOR**2, ALONG_THRESHOLD,
-            ALTERNATION_THRESHOLD, largest, energy, flags, sums,
+            ALTERNATION_THRESHOLD, fine.largest_square, fine.lag_scale, energy, flags, sums,
         )  # fmt: skip
         return results, (math.fsum(sums[:, 0]) if mode != kernels.MODE_LOCAL_MEAN else math.nan)
 
@@ -203,8 +264,8 @@ class _Maps:
         """The wall map, the energy ``G_2 * h**2`` and the energy's sum."""
 
         def compute():
-            energy = np.empty_like(self.plane)
-            walls = np.empty(self.plane.shape, dtype=bool)
+            energy = self._empty()
+            walls = self._empty(bool)
             results, total = self._smooth(_kernels().MODE_WALLS, energy, walls)
             self.exact_decisions = sum(r[1] for r in results)
             return _frozen(walls), _frozen(energy), total
@@ -219,7 +280,7 @@ class _Maps:
                 return energy, total
 
         def compute():
-            energy = np.empty_like(self.plane)
+            energy = self._empty()
             _, total = self._smooth(_kernels().MODE_ENERGY, energy, np.empty((1, 1), bool))
             return _frozen(energy), total
 
@@ -227,39 +288,48 @@ class _Maps:
 
     def cover(self) -> float:
         walls, _, _ = self.walls()
-        return np.count_nonzero(walls) / walls.size
+        return int(np.count_nonzero(walls)) / walls.size
 
     def above_local_mean(self) -> np.ndarray:
         """``g > G_2 * g``: where the plane is above its local mean."""
 
         def compute():
-            positive = np.empty(self.plane.shape, dtype=bool)
+            positive = self._empty(bool)
             self._smooth(_kernels().MODE_LOCAL_MEAN, np.empty((1, 1)), positive)
             return _frozen(positive)
 
         return self._get("above_local_mean", compute)
 
     def wall_orientation(self) -> tuple[np.ndarray, ...]:
-        """Strength, coherence * strength, cos and sin of twice the angle, of ``h``, on the walls."""
-        return self._get(
-            "wall_orientation",
-            lambda: _derived_orientation(
-                self.fine()[0], WINDOW_SIGMA, self.workers, walls=self.walls()[0]
-            ),
-        )
+        """Strength, coherence * strength, cos and sin of twice the angle, of ``h``, on the walls.
+
+        The strengths are those of ``h`` times a power of two (ratios of them are exact).
+        """
+
+        def compute():
+            fine = self._fine()
+            scale = _float32_scale(math.sqrt(fine.largest_square))
+            return _derived_orientation(
+                fine.fine, scale, WINDOW_SIGMA, self.workers, self.walls()[0], self._empty
+            )
+
+        return self._get("wall_orientation", compute)
 
     def contours(self, sigma: float) -> tuple[np.ndarray, ...]:
-        """The same for the plane itself at ``sigma``: its contours."""
-        return self._get(
-            ("contours", float(sigma)), lambda: _derived_orientation(self.plane, sigma, self.workers)
-        )
+        """The same for the plane itself at ``sigma``, everywhere: its contours."""
+
+        def compute():
+            scale = _float32_scale(self._fine().largest_tone)
+            return _derived_orientation(self.plane, scale, sigma, self.workers, None, self._empty)
+
+        return self._get(("contours", float(sigma)), compute)
 
     def edges(self) -> tuple[np.ndarray, float, float, bool]:
         """Sobel magnitude, its mean, ``sum((s - mean)**2)`` and whether it is constant."""
 
         def compute():
             kernels = _kernels()
-            edges = np.empty_like(self.plane)
+            edges = self._empty()
             sums = self._row_sums(3)
             self._bands(kernels.sobel_band, self.plane, edges, sums)
             mean = math.fsum(sums[:, 2]) / edges.size
@@ -268,6 +338,23 @@ class _Maps:
             return _frozen(edges), mean, math.fsum(sums[:, 0]), constant
 
         return self._get("edges", compute)
+
+
+class _Fine(NamedTuple):
+    fine: np.ndarray  # h = g - G_1 * g
+    fine32: np.ndarray  # h * sqrt(1 / lag_scale) in float32, for the lag correlations
+    total: float  # sum(h**2)
+    largest_square: float  # max(h**2) over the finite values
+    lag_scale: float  # a power of two
+    finite: bool  # no NaN or infinity in h
+    largest_tone: float  # max(|g|) over the finite values
+
+
+def _float32_scale(largest: float) -> float:
+    """A power of two that brings values up to ``largest`` where float32 squares are safe."""
+    if not 0.0 < largest < math.inf or 2.0**-40 <= largest <= 2.0**40:
+        return 1.0
+    return 2.0 ** -math.frexp(largest)[1]
 
 
 def _kernels():
@@ -294,24 +381,28 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     return array
 
 
-def _orientation_maps(plane: np.ndarray, sigma: float, mode: int, workers, count: int, walls=None):
-    """Structure-tensor maps of ``plane`` (see ``_metrics_kernels.orientation_band``).
+def _orientation_maps(plane, scale, sigma, mode, workers, count, walls=None, empty=None):
+    """Structure-tensor maps of ``plane * scale`` (see ``_metrics_kernels.orientation_band``).
 
     With ``walls``, only the pixels of the walls are sure to be computed.
+    ``empty(dtype)`` gives the output arrays.
     """
     kernels = _kernels()
-    outputs = [np.empty(plane.shape, dtype=np.float32) for _ in range(4)]
+    if empty is None:
+        empty = lambda dtype: np.empty(plane.shape, dtype=dtype)  # noqa: E731
+    outputs = [empty(np.float32) for _ in range(4)]
     use_walls = walls is not None
     walls = walls if use_walls else np.zeros((1, 1), dtype=bool)
     _in_bands(
-        kernels.orientation_band, plane.shape[0], workers, plane,
+        kernels.orientation_band, plane.shape[0], workers, plane, scale,
         _weights(2 * sigma, np.float32), mode, walls, use_walls, *outputs,
     )  # fmt: skip
     return tuple(_frozen(output) for output in outputs[:count])
 
 
-def _derived_orientation(plane: np.ndarray, sigma: float, workers, walls=None):
-    return _orientation_maps(plane, sigma, _kernels().TENSOR_DERIVED, workers, 4, walls)
+def _derived_orientation(plane, scale, sigma, workers, walls=None, empty=None):
+    kernels = _kernels()
+    return _orientation_maps(plane, scale, sigma, kernels.TENSOR_DERIVED, workers, 4, walls, empty)
 
 
 # --- the maps of renderings, shared between the single metrics ---------------------------
@@ -432,10 +523,10 @@ def orientation(image, sigma: float = WINDOW_SIGMA):
     computed, in float32 (relative error about 1e-7).
     """
     plane = _float_plane(_plane(image))
-    jrr, jrc, jcc = (
-        component.astype(np.float64)
-        for component in _orientation_maps(plane, sigma, _kernels().TENSOR_COMPONENTS, None, 3)
-    )
+    largest = float(np.max(np.abs(plane), where=np.isfinite(plane), initial=0.0))
+    scale = _float32_scale(largest)
+    components = _orientation_maps(plane, scale, sigma, _kernels().TENSOR_COMPONENTS, None, 3)
+    jrr, jrc, jcc = (component / scale**2 for component in components)  # float64, exact
     trace = jrr + jcc
     difference = np.sqrt((jrr - jcc) ** 2 + 4 * jrc**2)
     coherence = np.where(trace > 0, (difference / np.maximum(trace, 1e-12)) ** 2, 0.0)
@@ -455,8 +546,8 @@ def orientation_coherence(image) -> float:
 
 
 def _orientation_coherence(maps: _Maps) -> float:
-    if maps.cover() < MIN_COVER:
-        return math.nan
+    if maps.cover() < MIN_COVER or not maps.finite:
+        return math.nan  # NaN or infinity in h: the weighted sum is NaN
     walls, _, _ = maps.walls()
     strength, coherent, _, _ = maps.wall_orientation()
     sums = maps._row_sums(2)
@@ -486,8 +577,8 @@ def contour_alignment(original, rendered, *, contour_sigma: float = CONTOUR_SIGM
 
 
 def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTOUR_SIGMA) -> float:
-    if after.cover() < MIN_COVER:
-        return math.nan
+    if after.cover() < MIN_COVER or not (after.finite and before.finite):
+        return math.nan  # NaN or infinity in either image: the weighted sum is NaN
     walls, _, _ = after.walls()
     _, wall_coherent, wall_cos, wall_sin = after.wall_orientation()
     _, contour_coherent, contour_cos, contour_sin = before.contours(contour_sigma)
@@ -520,6 +611,8 @@ def edge_enhancement(original, rendered) -> float:
 
 
 def _edge_enhancement(before: _Maps, after: _Maps) -> float:
+    if not (after.finite and before.finite):
+        return math.nan  # NaN or infinity in either image: so is the correlation
     energy_after, total_after = after.energy()
     energy_before, total_before = before.energy()
     edges, edges_mean, edges_spread, edges_constant = before.edges()
@@ -535,7 +628,7 @@ def _edge_enhancement(before: _Maps, after: _Maps) -> float:
     if added_constant or edges_constant:
         return 0.0
     correlation = cross / math.sqrt(spread * edges_spread)
-    return float(min(1.0, max(-1.0, correlation)))
+    return min(1.0, max(-1.0, correlation)) if not math.isnan(correlation) else math.nan
 
 
 # --- every metric at once -------------------------------------------------------------------
@@ -568,6 +661,7 @@ class Comparison:
     def __init__(self, original, *, workers: int | None = None):
         self._maps = _Maps(_float_plane(_plane(original, "original"), copy=True), workers)
         self.workers = workers
+        self._pool = _Pool()
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -582,16 +676,23 @@ class Comparison:
         """
         after_array = _plane(rendered, "rendered")
         _same_shape(self._maps.plane, after_array)
-        return self._steps(_Maps(_float_plane(after_array, copy=True), self.workers))
+        plane = self._pool.take(after_array.shape, np.float64)
+        np.copyto(plane, after_array, casting="unsafe")  # real dtypes: exact in float64
+        after = _Maps(plane, self.workers, self._pool)
+        after._taken.append(plane)
+        return self._steps(after)
 
     def _steps(self, after: _Maps) -> Iterator[tuple[str, float]]:
         before = self._maps
-        yield "texture_added", _texture_added(before, after)
-        yield "labyrinth_cover", after.cover()
-        yield "wall_width", _wall_width(after)
-        yield "orientation_coherence", _orientation_coherence(after)
-        yield "contour_alignment", _contour_alignment(before, after)
-        yield "edge_enhancement", _edge_enhancement(before, after)
+        try:
+            yield "texture_added", _texture_added(before, after)
+            yield "labyrinth_cover", after.cover()
+            yield "wall_width", _wall_width(after)
+            yield "orientation_coherence", _orientation_coherence(after)
+            yield "contour_alignment", _contour_alignment(before, after)
+            yield "edge_enhancement", _edge_enhancement(before, after)
+        finally:
+            after.release()  # its arrays serve the next rendering
 
     def describe(self, rendered) -> dict[str, float]:
         """Every metric of ``rendered``, as a dict of floats in the order of :data:`METRICS`."""
