@@ -39,10 +39,11 @@ def camera(size: int) -> np.ndarray:
     return image.astype(np.uint8)
 
 
-def seconds(function) -> float:
+def timed(function, *arguments):
+    """``(seconds, function(*arguments))``."""
     start = time.perf_counter()
-    function()
-    return time.perf_counter() - start
+    result = function(*arguments)
+    return time.perf_counter() - start, result
 
 
 def main(argv=None) -> None:
@@ -76,25 +77,19 @@ def main(argv=None) -> None:
         print(f"round {round_number + 1}/{args.rounds}, load average {os.getloadavg()}")
         for size, (original, rendered) in cases.items():
             comparison = metrics.Comparison(original)
-            times.setdefault((size, "first pass"), []).append(
-                seconds(lambda: results.__setitem__((size, "new"), comparison.describe(rendered)))
-            )
-            times.setdefault((size, "next passes"), []).append(
-                seconds(lambda: comparison.describe(rendered))
-            )
+            seconds, results[(size, "new")] = timed(comparison.describe, rendered)
+            times.setdefault((size, "first pass"), []).append(seconds)
+            seconds, _ = timed(comparison.describe, rendered)
+            times.setdefault((size, "next passes"), []).append(seconds)
             metrics.describe(original, rendered)  # the original's maps now in describe's cache
-            times.setdefault((size, "describe()"), []).append(
-                seconds(lambda: metrics.describe(original, rendered))
-            )
+            seconds, _ = timed(metrics.describe, original, rendered)
+            times.setdefault((size, "describe()"), []).append(seconds)
             reference_rounds = args.rounds if size <= 2048 else (args.reference_rounds or 1)
             if round_number < reference_rounds:
-                times.setdefault((size, "reference"), []).append(
-                    seconds(
-                        lambda: results.__setitem__(
-                            (size, "reference"), reference.describe(original, rendered)
-                        )
-                    )
+                seconds, results[(size, "reference")] = timed(
+                    reference.describe, original, rendered
                 )
+                times.setdefault((size, "reference"), []).append(seconds)
                 time.sleep(1.0)  # let BLAS's worker threads (np.corrcoef) go back to sleep
 
     print(f"\nload average at the end {os.getloadavg()}, {os.cpu_count()} cores")

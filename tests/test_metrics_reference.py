@@ -93,10 +93,18 @@ def _cases():
     cases.append(("unchanged", camera[:100, :120], camera[:100, :120].copy()))
     image16 = (camera[100:260, 50:230].astype(np.uint16) * 257) // 3
     cases.append(("uint16", image16 // 257, labyrinth(image16, seed=5) // 257))
-    cases.append(("float32", camera[:128, :96].astype(np.float32), labyrinth(camera[:128, :96], seed=6).astype(np.float32)))
+    cases.append(
+        (
+            "float32",
+            camera[:128, :96].astype(np.float32),
+            labyrinth(camera[:128, :96], seed=6).astype(np.float32),
+        )
+    )
     strided = labyrinth(camera, seed=8)[::3, ::2]
     cases.append(("strided view", camera[::3, ::2], strided))
-    cases.append(("transposed view", camera[:200, :150].T, labyrinth(camera[:200, :150], seed=9).T))
+    cases.append(
+        ("transposed view", camera[:200, :150].T, labyrinth(camera[:200, :150], seed=9).T)
+    )
     scaled = labyrinth(camera[:160, :140], seed=10).astype(float)
     for factor in (1e-30, 1e30):  # float32 would overflow or lose its digits unscaled
         cases.append((f"times {factor:g}", camera[:160, :140] * factor, scaled * factor))

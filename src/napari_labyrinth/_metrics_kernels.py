@@ -3,18 +3,22 @@
 Every kernel works on a band of output rows ``[y0, y1)`` of a 2-D plane, so
 that the caller can share a plane's rows between threads; every kernel
 releases the GIL and allocates its own buffers (no shared mutable state).
+Sums are made row by row (the caller adds the rows' sums), so that results
+do not depend on the bands.
 
-Two precisions, chosen by what each result feeds:
+Precision, chosen by what each result feeds:
 
-- The fine-scale component, the local energies and lag correlations behind
-  the wall map, and the local mean behind ``wall_width`` are float64 and
-  follow ``scipy.ndimage.gaussian_filter`` operation for operation (the same
-  1-D passes, axis 0 then axis 1, the same ``reflect`` extension, the same
-  order of the taps: centre first, then the outermost pair down to the
-  nearest), so they equal scipy's results bit for bit and the wall map is
-  the same boolean map.
+- The fine-scale component, the local energy and the local mean are
+  float64 and follow ``scipy.ndimage.gaussian_filter`` operation for
+  operation (the same 1-D passes, axis 0 then axis 1, the same ``reflect``
+  extension, the same order of the taps: centre first, then the outermost
+  pair down to the nearest): they are scipy's floats, bit for bit.
+- The 12 lag correlations behind the wall map are smoothed in float32 with
+  a bound on their error; the few pixels whose wall decision the bound
+  leaves open are recomputed in float64 in scipy's order
+  (:func:`smooth_band`). The wall map is the float64 one.
 - The structure tensors (orientations) are float32: they only feed weighted
-  means, where float32 rounding moves the result by about 1e-6.
+  means, where float32 rounding moves the result by about 1e-8.
 """
 
 from __future__ import annotations
@@ -148,11 +152,19 @@ def _gauss_rows(rows, lower, upper, centre, weights, out):
     while j >= 4:
         _add_taps4(
             out,
-            rows[lower[j]], rows[upper[j]], weights[j],
-            rows[lower[j - 1]], rows[upper[j - 1]], weights[j - 1],
-            rows[lower[j - 2]], rows[upper[j - 2]], weights[j - 2],
-            rows[lower[j - 3]], rows[upper[j - 3]], weights[j - 3],
-        )  # fmt: skip
+            rows[lower[j]],
+            rows[upper[j]],
+            weights[j],
+            rows[lower[j - 1]],
+            rows[upper[j - 1]],
+            weights[j - 1],
+            rows[lower[j - 2]],
+            rows[upper[j - 2]],
+            weights[j - 2],
+            rows[lower[j - 3]],
+            rows[upper[j - 3]],
+            weights[j - 3],
+        )
         j -= 4
     while j >= 1:
         _add_tap(out, rows[lower[j]], rows[upper[j]], weights[j])
@@ -168,17 +180,24 @@ def _gauss_line(ext, radius, weights, out):
     while j >= 4:
         _add_taps4(
             out,
-            ext[radius - j : radius - j + n], ext[radius + j : radius + j + n], weights[j],
-            ext[radius - j + 1 : radius - j + 1 + n], ext[radius + j - 1 : radius + j - 1 + n],
+            ext[radius - j : radius - j + n],
+            ext[radius + j : radius + j + n],
+            weights[j],
+            ext[radius - j + 1 : radius - j + 1 + n],
+            ext[radius + j - 1 : radius + j - 1 + n],
             weights[j - 1],
-            ext[radius - j + 2 : radius - j + 2 + n], ext[radius + j - 2 : radius + j - 2 + n],
+            ext[radius - j + 2 : radius - j + 2 + n],
+            ext[radius + j - 2 : radius + j - 2 + n],
             weights[j - 2],
-            ext[radius - j + 3 : radius - j + 3 + n], ext[radius + j - 3 : radius + j - 3 + n],
+            ext[radius - j + 3 : radius - j + 3 + n],
+            ext[radius + j - 3 : radius + j - 3 + n],
             weights[j - 3],
-        )  # fmt: skip
+        )
         j -= 4
     while j >= 1:
-        _add_tap(out, ext[radius - j : radius - j + n], ext[radius + j : radius + j + n], weights[j])
+        _add_tap(
+            out, ext[radius - j : radius - j + n], ext[radius + j : radius + j + n], weights[j]
+        )
         j -= 1
 
 
@@ -279,7 +298,7 @@ def _source_row(fine, plane, mode, dy, dx, half, row, s0, s1, out):
 @njit(cache=True, nogil=True)
 def _smooth_block(
     fine, plane, mode, dy, dx, half, weights, b0, b1, x0, x1, ring, column, ext, result, needed
-):  # fmt: skip
+):
     """``result[y - b0, x - x0]`` = Gaussian of one source map on rows ``[b0, b1)``, columns ``[x0, x1)``.
 
     The source rows (:func:`_source_row`) go through a ring buffer of
@@ -299,10 +318,14 @@ def _smooth_block(
     lower = np.empty(radius + 1, dtype=np.int64)
     upper = np.empty(radius + 1, dtype=np.int64)
     for v in range(b0 - radius, b0 + radius):
-        _source_row(fine, plane, mode, dy, dx, half, _reflect(v, height), s0, s1, rows[v % ring_rows])
+        _source_row(
+            fine, plane, mode, dy, dx, half, _reflect(v, height), s0, s1, rows[v % ring_rows]
+        )
     for y in range(b0, b1):
         v = y + radius
-        _source_row(fine, plane, mode, dy, dx, half, _reflect(v, height), s0, s1, rows[v % ring_rows])
+        _source_row(
+            fine, plane, mode, dy, dx, half, _reflect(v, height), s0, s1, rows[v % ring_rows]
+        )
         if not needed[y - b0]:
             continue
         for j in range(radius + 1):
@@ -378,6 +401,10 @@ def smooth_band(
     ext = np.empty(span)
     result = np.empty((Y_BLOCK, X_TILE))
     every_row = np.ones(Y_BLOCK, dtype=np.bool_)
+    # integers that are not compile-time constants: a constant argument would make numba
+    # compile a helper once more for it
+    no_lag = LAG_DY[0]
+    energy_mode = mode - mode + MODE_ENERGY
     count = 0
     exact = 0
     half = 0.5
@@ -387,9 +414,23 @@ def smooth_band(
             for b0 in range(y0, y1, Y_BLOCK):
                 b1 = min(y1, b0 + Y_BLOCK)
                 _smooth_block(
-                    plane, plane, mode, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext,
-                    result, every_row,
-                )  # fmt: skip
+                    plane,
+                    plane,
+                    mode,
+                    no_lag,
+                    no_lag,
+                    half,
+                    weights,
+                    b0,
+                    b1,
+                    x0,
+                    x1,
+                    ring,
+                    column,
+                    ext,
+                    result,
+                    every_row,
+                )
                 for y in range(b0, b1):
                     source = plane[y, x0:x1]
                     mean = result[y - b0]
@@ -410,9 +451,23 @@ def smooth_band(
         for b0 in range(e0, e1, Y_BLOCK):
             b1 = min(e1, b0 + Y_BLOCK)
             _smooth_block(
-                fine, plane, MODE_ENERGY, 0, 0, half, weights, b0, b1, x0, x1, ring, column, ext,
-                result, every_row,
-            )  # fmt: skip
+                fine,
+                plane,
+                energy_mode,
+                no_lag,
+                no_lag,
+                half,
+                weights,
+                b0,
+                b1,
+                x0,
+                x1,
+                ring,
+                column,
+                ext,
+                result,
+                every_row,
+            )
             for y in range(b0, b1):
                 row = _energy_row(energy, halo, e0, y0, y1, y)
                 row[x0:x1] = result[y - b0, : x1 - x0]
@@ -443,9 +498,23 @@ def smooth_band(
                 continue
             for m in range(1, 13):
                 _smooth_block(
-                    fine32, plane, MODE_WALLS, LAG_DY[m], LAG_DX[m], half32, weights32, b0, b1,
-                    x0, x1, ring32, column32, ext32, lags[m], textured,
-                )  # fmt: skip
+                    fine32,
+                    plane,
+                    mode,
+                    LAG_DY[m],
+                    LAG_DX[m],
+                    half32,
+                    weights32,
+                    b0,
+                    b1,
+                    x0,
+                    x1,
+                    ring32,
+                    column32,
+                    ext32,
+                    lags[m],
+                    textured,
+                )
             _margins(energy, halo, e0, y0, y1, b0, b1, x0, x1, largest_square, inverse, margins)
             for y in range(b0, b1):
                 row_energy = energy[y, x0:x1]
@@ -457,9 +526,14 @@ def smooth_band(
                     wall = False
                     if e > energy_floor2:
                         decided, wall = _decide(
-                            lags, y - b0, i, row_inverse[i] * lag_scale, row_margin[i],
-                            along_threshold, alternation_threshold,
-                        )  # fmt: skip
+                            lags,
+                            y - b0,
+                            i,
+                            row_inverse[i] * lag_scale,
+                            row_margin[i],
+                            along_threshold,
+                            alternation_threshold,
+                        )
                         if not decided:
                             wall = _exact_wall(
                                 fine, weights, y, x0 + i, e, along_threshold, alternation_threshold
@@ -704,7 +778,9 @@ def _interpolate(a, b, wa, wb, out):
 
 
 @njit(cache=True, nogil=True)
-def _tensor_products(up_e, up_o, mid_e, mid_o, down_e, down_o, origin, width, work, products_e, products_o):
+def _tensor_products(
+    up_e, up_o, mid_e, mid_o, down_e, down_o, origin, width, work, products_e, products_o
+):
     """Products of the Sobel derivatives (``constant`` padding) of one doubled row.
 
     ``up``/``mid``/``down`` are the doubled rows i - 1, i, i + 1 (zero rows
@@ -740,8 +816,20 @@ def _tensor_products(up_e, up_o, mid_e, mid_o, down_e, down_o, origin, width, wo
             products_e[c, k] = 0.0
             products_o[c, k] = 0.0
     if k1 > k0:
-        _products(dr_e[k0:k1], dc_e[k0:k1], products_e[0, k0:k1], products_e[1, k0:k1], products_e[2, k0:k1])
-        _products(dr_o[k0:k1], dc_o[k0:k1], products_o[0, k0:k1], products_o[1, k0:k1], products_o[2, k0:k1])
+        _products(
+            dr_e[k0:k1],
+            dc_e[k0:k1],
+            products_e[0, k0:k1],
+            products_e[1, k0:k1],
+            products_e[2, k0:k1],
+        )
+        _products(
+            dr_o[k0:k1],
+            dc_o[k0:k1],
+            products_o[0, k0:k1],
+            products_o[1, k0:k1],
+            products_o[2, k0:k1],
+        )
     return m
 
 
@@ -783,9 +871,20 @@ def _gauss_even(line_e, line_o, pad, weights, out):
             a3, b3 = _phase_pair(line_e, line_o, pad, n, t - 2)
             a4, b4 = _phase_pair(line_e, line_o, pad, n, t - 3)
             _add_taps4(
-                out, a1, b1, weights[t], a2, b2, weights[t - 1], a3, b3, weights[t - 2],
-                a4, b4, weights[t - 3],
-            )  # fmt: skip
+                out,
+                a1,
+                b1,
+                weights[t],
+                a2,
+                b2,
+                weights[t - 1],
+                a3,
+                b3,
+                weights[t - 2],
+                a4,
+                b4,
+                weights[t - 3],
+            )
             t -= 4
         else:
             a, b = _phase_pair(line_e, line_o, pad, n, t)
@@ -804,7 +903,9 @@ def _phase_pair(line_e, line_o, pad, n, t):
 
 
 @njit(cache=True, nogil=True)
-def _tensor_tile(plane, scale, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3):
+def _tensor_tile(
+    plane, scale, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3
+):
     """:func:`orientation_band` on the output columns ``[x0, x1)``."""
     height, width = plane.shape
     doubled_height = 2 * height
@@ -861,9 +962,18 @@ def _tensor_tile(plane, scale, weights, mode, walls, use_walls, x0, x1, y0, y1, 
                     row_of_slot[slot] = r
                 slots[k] = slot
             _tensor_products(
-                rows_e[slots[0]], rows_o[slots[0]], rows_e[slots[1]], rows_o[slots[1]],
-                rows_e[slots[2]], rows_o[slots[2]], origin, width, work, products_e, products_o,
-            )  # fmt: skip
+                rows_e[slots[0]],
+                rows_o[slots[0]],
+                rows_e[slots[1]],
+                rows_o[slots[1]],
+                rows_e[slots[2]],
+                rows_o[slots[2]],
+                origin,
+                width,
+                work,
+                products_e,
+                products_o,
+            )
             for c in range(3):
                 _gauss_even(products_e[c], products_o[c], pad, weights, ring[c, i % ring_rows])
             next_row += 1
@@ -879,7 +989,15 @@ def _tensor_tile(plane, scale, weights, mode, walls, use_walls, x0, x1, y0, y1, 
             _copy(tensor[1], out1[y, x0:x1])
             _copy(tensor[2], out2[y, x0:x1])
         else:
-            _derive(tensor[0], tensor[1], tensor[2], out0[y, x0:x1], out1[y, x0:x1], out2[y, x0:x1], out3[y, x0:x1])
+            _derive(
+                tensor[0],
+                tensor[1],
+                tensor[2],
+                out0[y, x0:x1],
+                out1[y, x0:x1],
+                out2[y, x0:x1],
+                out3[y, x0:x1],
+            )
 
 
 @njit(cache=True, nogil=True)
@@ -914,7 +1032,9 @@ def _derive(rr, rc, cc, strength, coherent, cosine, sine):
 
 
 @njit(cache=True, nogil=True)
-def orientation_band(plane, scale, weights, mode, walls, use_walls, out0, out1, out2, out3, y0, y1):
+def orientation_band(
+    plane, scale, weights, mode, walls, use_walls, out0, out1, out2, out3, y0, y1
+):
     """Structure tensor of ``zoom(plane, 2)`` at the even doubled pixels of rows ``[y0, y1)``.
 
     ``skimage.feature.structure_tensor(doubled, sigma, order="rc")[::2, ::2]``:
@@ -976,7 +1096,9 @@ def sobel_band(plane, out, sums, y0, y1):
 def _sobel_rows(up, mid, down, rows, columns):
     """The two Sobel derivatives (skimage's weights 1 2 1 / 4) of a row, from padded rows."""
     for x in range(rows.shape[0]):
-        rows[x] = 0.25 * ((down[x] + 2.0 * down[x + 1] + down[x + 2]) - (up[x] + 2.0 * up[x + 1] + up[x + 2]))
+        rows[x] = 0.25 * (
+            (down[x] + 2.0 * down[x + 1] + down[x + 2]) - (up[x] + 2.0 * up[x + 1] + up[x + 2])
+        )
     for x in range(rows.shape[0]):
         columns[x] = 0.25 * (
             (up[x + 2] + 2.0 * mid[x + 2] + down[x + 2]) - (up[x] + 2.0 * mid[x] + down[x])
@@ -1039,10 +1161,12 @@ def wall_pair_counts(walls, positive, y0, y1):
         for y in range(y0, y1):
             ahead = (y + dy) % height
             both, flips = _pair_counts(
-                walls[y, lo:hi], walls[ahead, lo + dx : hi + dx],
-                positive[y, lo:hi], positive[ahead, lo + dx : hi + dx],
-            )  # fmt: skip
-            for x in list(range(0, lo)) + list(range(hi, width)):  # the wrapped ends
+                walls[y, lo:hi],
+                walls[ahead, lo + dx : hi + dx],
+                positive[y, lo:hi],
+                positive[ahead, lo + dx : hi + dx],
+            )
+            for x in list(range(lo)) + list(range(hi, width)):  # the wrapped ends
                 xn = (x + dx) % width
                 if walls[y, x] and walls[ahead, xn]:
                     both += 1
@@ -1080,9 +1204,17 @@ def wall_weighted_sums(walls, strength, coherent, sums, y0, y1):
 
 @njit(cache=True, nogil=True)
 def alignment_sums(
-    walls, wall_coherent, wall_cos, wall_sin, contour_coherent, contour_cos, contour_sin, sums,
-    y0, y1,
-):  # fmt: skip
+    walls,
+    wall_coherent,
+    wall_cos,
+    wall_sin,
+    contour_coherent,
+    contour_cos,
+    contour_sin,
+    sums,
+    y0,
+    y1,
+):
     """``sums[y]``: ``sum(cos**2(angle difference) * weight)`` and ``sum(weight)`` on the
     walls of row y, weight = wall coherence * strength * contour coherence * strength.
 
@@ -1095,7 +1227,10 @@ def alignment_sums(
         for x in range(width):
             if walls[y, x]:
                 weight = np.float64(wall_coherent[y, x]) * np.float64(contour_coherent[y, x])
-                cosine = np.float64(wall_cos[y, x]) * contour_cos[y, x] + np.float64(wall_sin[y, x]) * contour_sin[y, x]
+                cosine = (
+                    np.float64(wall_cos[y, x]) * contour_cos[y, x]
+                    + np.float64(wall_sin[y, x]) * contour_sin[y, x]
+                )
                 numerator += 0.5 * (1.0 + cosine) * weight
                 denominator += weight
         sums[y, 0] = numerator

@@ -15,17 +15,16 @@ between two), and :class:`Comparison` keeps the maps of an original for the
 renderings of it that follow (the passes of a stack). The heavy work runs in
 numba kernels (:mod:`._metrics_kernels`) that release the GIL, on
 ``workers`` threads. The Gaussian windows, the fine-scale component and the
-wall map are computed as ``scipy.ndimage.gaussian_filter`` computes them,
-bit for bit; the structure tensors in float32 (see ``docs/metrics.md``).
+wall map are those of ``scipy.ndimage.gaussian_filter``, bit for bit; the
+structure tensors are float32 (see :mod:`._metrics_kernels`).
 """
 
 from __future__ import annotations
 
-import hashlib
+import itertools
 import math
 import os
 import threading
-from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, NamedTuple
@@ -63,9 +62,9 @@ METRICS = (
     "edge_enhancement",
 )
 
-# Lag vectors (dy, dx) of the four lattice directions and of their normals.
+# Lag vectors (dy, dx) of the four lattice directions (their normals: (1, 0), (0, 1),
+# (1, -1), (1, 1); see _metrics_kernels.FAMILIES).
 _DIRECTIONS = ((0, 1), (1, 0), (1, 1), (1, -1))
-_NORMALS = ((1, 0), (0, 1), (1, -1), (1, 1))
 
 #: Rows per thread below which a plane is not split between threads.
 _MIN_BAND_ROWS = 64
@@ -111,36 +110,40 @@ def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) ->
     with ThreadPoolExecutor(count) as pool:
         futures = [
             pool.submit(kernel, *arguments, int(y0), int(y1))
-            for y0, y1 in zip(edges[:-1], edges[1:])
+            for y0, y1 in itertools.pairwise(edges)
         ]
         return [future.result() for future in futures]
 
 
-class _ContentCache:
-    """A small thread-safe cache keyed by an array's content (dtype, shape and bytes)."""
+class _LastPlane:
+    """A thread-safe cache of one value: the one computed for the last plane's content.
 
-    def __init__(self, size: int):
-        self._size = size
-        self._entries: OrderedDict = OrderedDict()
+    A plane matches when it equals the kept float64 plane, value for value
+    (NaN matching NaN): the metrics depend on nothing else. Comparing costs
+    a read of both planes, less than hashing one.
+    """
+
+    def __init__(self):
+        self._entry: tuple[Any, np.ndarray, Any] | None = None
         self._lock = threading.Lock()
 
-    @staticmethod
-    def key(array: np.ndarray) -> tuple:
-        data = np.ascontiguousarray(array)
-        digest = hashlib.sha256(data.view(np.uint8)).digest()  # releases the GIL
-        return (data.dtype.str, data.shape, digest)
+    def get(self, key, array: np.ndarray, make: Callable[[np.ndarray], tuple[np.ndarray, Any]]):
+        """The value kept for (``key``, ``array``'s content), or ``make(array)``'s.
 
-    def get(self, key, make: Callable[[], Any]):
+        ``make`` returns the float64 copy of ``array`` it keeps and the value.
+        """
         with self._lock:
-            if key in self._entries:
-                self._entries.move_to_end(key)
-                return self._entries[key]
-        value = make()  # outside the lock: another thread may compute the same value
+            entry = self._entry
+        if (
+            entry is not None
+            and entry[0] == key
+            and entry[1].shape == array.shape
+            and np.array_equal(entry[1], array, equal_nan=array.dtype.kind == "f")
+        ):
+            return entry[2]
+        plane, value = make(array)  # outside the lock: another thread may compute it too
         with self._lock:
-            self._entries[key] = value
-            self._entries.move_to_end(key)
-            while len(self._entries) > self._size:
-                self._entries.popitem(last=False)
+            self._entry = (key, plane, value)
         return value
 
 
@@ -190,7 +193,8 @@ class _Maps:
         self._pool = pool
         self._taken: list[np.ndarray] = []
         self._lock = threading.RLock()
-        self._values: dict[str, Any] = {}
+        self._values: dict[Any, Any] = {}
+        self.exact_decisions = 0  # wall decisions recomputed in float64 (see _metrics_kernels)
 
     def _empty(self, dtype=np.float64) -> np.ndarray:
         """A new plane-shaped array (from the pool, if any)."""
@@ -233,9 +237,14 @@ class _Maps:
             if scale != 1.0:  # h**2 would overflow (or lose its digits in) float32
                 fine32 = (fine * scale).astype(np.float32)
             return _Fine(
-                _frozen(fine), _frozen(fine32), math.fsum(sums[:, 0]), largest_square,
-                1.0 / scale**2, not sums[:, 2].any(), float(sums[:, 3].max()),
-            )  # fmt: skip
+                fine,
+                fine32,
+                math.fsum(sums[:, 0]),
+                largest_square,
+                1.0 / scale**2,
+                not sums[:, 2].any(),
+                float(sums[:, 3].max()),
+            )
 
         return self._get("fine", compute)
 
@@ -254,10 +263,22 @@ class _Maps:
         fine = self._fine()
         sums = self._row_sums(1)
         results = self._bands(
-            kernels.smooth_band, fine.fine, fine.fine32, self.plane, mode, _weights(WINDOW_SIGMA),
-            _weights(WINDOW_SIGMA, np.float32), ENERGY_FLOOR**2, ALONG_THRESHOLD,
-            ALTERNATION_THRESHOLD, fine.largest_square, fine.lag_scale, energy, flags, sums,
-        )  # fmt: skip
+            kernels.smooth_band,
+            fine.fine,
+            fine.fine32,
+            self.plane,
+            mode,
+            _weights(WINDOW_SIGMA),
+            _weights(WINDOW_SIGMA, np.float32),
+            ENERGY_FLOOR**2,
+            ALONG_THRESHOLD,
+            ALTERNATION_THRESHOLD,
+            fine.largest_square,
+            fine.lag_scale,
+            energy,
+            flags,
+            sums,
+        )
         return results, (math.fsum(sums[:, 0]) if mode != kernels.MODE_LOCAL_MEAN else math.nan)
 
     def walls(self) -> tuple[np.ndarray, np.ndarray, float]:
@@ -268,7 +289,7 @@ class _Maps:
             walls = self._empty(bool)
             results, total = self._smooth(_kernels().MODE_WALLS, energy, walls)
             self.exact_decisions = sum(r[1] for r in results)
-            return _frozen(walls), _frozen(energy), total
+            return walls, energy, total
 
         return self._get("walls", compute)
 
@@ -282,7 +303,7 @@ class _Maps:
         def compute():
             energy = self._empty()
             _, total = self._smooth(_kernels().MODE_ENERGY, energy, np.empty((1, 1), bool))
-            return _frozen(energy), total
+            return energy, total
 
         return self._get("energy", compute)
 
@@ -296,7 +317,7 @@ class _Maps:
         def compute():
             positive = self._empty(bool)
             self._smooth(_kernels().MODE_LOCAL_MEAN, np.empty((1, 1)), positive)
-            return _frozen(positive)
+            return positive
 
         return self._get("above_local_mean", compute)
 
@@ -335,7 +356,7 @@ class _Maps:
             mean = math.fsum(sums[:, 2]) / edges.size
             constant = bool(sums[:, 0].min() == sums[:, 1].max())
             self._bands(kernels.centred_sums, edges, edges, mean, mean, sums)
-            return _frozen(edges), mean, math.fsum(sums[:, 0]), constant
+            return edges, mean, math.fsum(sums[:, 0]), constant
 
         return self._get("edges", compute)
 
@@ -368,17 +389,23 @@ _WEIGHTS_LOCK = threading.Lock()
 
 
 def _weights(sigma: float, dtype=np.float64) -> np.ndarray:
-    """scipy's Gaussian weights for ``sigma`` (half of the kernel), cached (read-only)."""
+    """scipy's Gaussian weights for ``sigma`` (half of the kernel), cached: not to be changed."""
     key = (float(sigma), np.dtype(dtype).str)
     with _WEIGHTS_LOCK:
         if key not in _WEIGHTS:
-            _WEIGHTS[key] = _frozen(_kernels().gaussian_weights(sigma).astype(dtype))
+            _WEIGHTS[key] = _kernels().gaussian_weights(sigma).astype(dtype)
         return _WEIGHTS[key]
 
 
-def _frozen(array: np.ndarray) -> np.ndarray:
-    array.flags.writeable = False  # shared by every caller
-    return array
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """A read-only view: what a caller gets of a shared map.
+
+    The maps themselves stay writeable (numba compiles a kernel once per
+    kind of array it is given; read-only arrays would double the kernels).
+    """
+    view = array.view()
+    view.flags.writeable = False
+    return view
 
 
 def _orientation_maps(plane, scale, sigma, mode, workers, count, walls=None, empty=None):
@@ -389,15 +416,26 @@ def _orientation_maps(plane, scale, sigma, mode, workers, count, walls=None, emp
     """
     kernels = _kernels()
     if empty is None:
-        empty = lambda dtype: np.empty(plane.shape, dtype=dtype)  # noqa: E731
+
+        def empty(dtype):
+            return np.empty(plane.shape, dtype=dtype)
+
     outputs = [empty(np.float32) for _ in range(4)]
     use_walls = walls is not None
     walls = walls if use_walls else np.zeros((1, 1), dtype=bool)
     _in_bands(
-        kernels.orientation_band, plane.shape[0], workers, plane, scale,
-        _weights(2 * sigma, np.float32), mode, walls, use_walls, *outputs,
-    )  # fmt: skip
-    return tuple(_frozen(output) for output in outputs[:count])
+        kernels.orientation_band,
+        plane.shape[0],
+        workers,
+        plane,
+        scale,
+        _weights(2 * sigma, np.float32),
+        mode,
+        walls,
+        use_walls,
+        *outputs,
+    )
+    return tuple(outputs[:count])
 
 
 def _derived_orientation(plane, scale, sigma, workers, walls=None, empty=None):
@@ -408,26 +446,26 @@ def _derived_orientation(plane, scale, sigma, workers, walls=None, empty=None):
 # --- the maps of renderings, shared between the single metrics ---------------------------
 
 #: Maps of the last plane given to the single metrics, by content (a plane's maps take
-#: about 45 bytes a pixel: one entry).
-_RENDERED = _ContentCache(1)
+#: about 45 bytes a pixel: one is kept).
+_RENDERED = _LastPlane()
 #: The :class:`Comparison` of the last original given to :func:`describe`, by content.
-_ORIGINALS = _ContentCache(1)
+_ORIGINALS = _LastPlane()
 
 
 def _maps_of(image, name: str = "image") -> _Maps:
     """The (cached) maps of a plane given to one of the single metrics."""
-    array = _plane(image, name)
-    return _RENDERED.get(
-        ("maps", *_ContentCache.key(array)), lambda: _Maps(_float_plane(array, copy=True))
-    )
+
+    def make(array):
+        maps = _Maps(_float_plane(array, copy=True))
+        return maps.plane, maps
+
+    return _RENDERED.get(None, _plane(image, name), make)
 
 
 def fine_scale(image) -> np.ndarray:
     """The fine-scale component ``h = g - G_1 * g`` of a plane."""
-    maps = _Maps(_float_plane(_plane(image)))
-    fine, _ = maps.fine()
-    fine = fine.copy()  # the caller's own array
-    return fine
+    fine, _ = _Maps(_float_plane(_plane(image))).fine()
+    return fine  # a new array, the caller's own
 
 
 def texture_added(original, rendered) -> float:
@@ -468,7 +506,7 @@ def wall_map(image) -> np.ndarray:
     shared between callers.
     """
     walls, _, _ = _maps_of(image).walls()
-    return walls
+    return _read_only(walls)
 
 
 def labyrinth_cover(image) -> float:
@@ -572,7 +610,7 @@ def contour_alignment(original, rendered, *, contour_sigma: float = CONTOUR_SIGM
     _same_shape(before, after)
     maps = _maps_of(after, "rendered")
     if maps.cover() < MIN_COVER:
-        return math.nan
+        return math.nan  # before the contours are computed for nothing
     return _contour_alignment(_Maps(_float_plane(before)), maps, contour_sigma)
 
 
@@ -584,9 +622,16 @@ def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTO
     _, contour_coherent, contour_cos, contour_sin = before.contours(contour_sigma)
     sums = after._row_sums(2)
     after._bands(
-        _kernels().alignment_sums, walls, wall_coherent, wall_cos, wall_sin,
-        contour_coherent, contour_cos, contour_sin, sums,
-    )  # fmt: skip
+        _kernels().alignment_sums,
+        walls,
+        wall_coherent,
+        wall_cos,
+        wall_sin,
+        contour_coherent,
+        contour_cos,
+        contour_sin,
+        sums,
+    )
     numerator = math.fsum(sums[:, 0])
     total = math.fsum(sums[:, 1])
     if not total > 0:
@@ -619,9 +664,14 @@ def _edge_enhancement(before: _Maps, after: _Maps) -> float:
     added_mean = (total_after - total_before) / edges.size
     sums = after._row_sums(4)
     after._bands(
-        _kernels().added_edge_sums, energy_after, energy_before, edges, added_mean, edges_mean,
+        _kernels().added_edge_sums,
+        energy_after,
+        energy_before,
+        edges,
+        added_mean,
+        edges_mean,
         sums,
-    )  # fmt: skip
+    )
     cross = math.fsum(sums[:, 0])
     spread = math.fsum(sums[:, 1])
     added_constant = bool(sums[:, 2].min() == sums[:, 3].max())
@@ -637,25 +687,32 @@ def _edge_enhancement(before: _Maps, after: _Maps) -> float:
 class Comparison:
     """The metrics of renderings of one original, its own maps computed once.
 
-    The passes of a stack are renderings of the same input: its fine-scale
-    energy, Sobel edges and contour orientation are computed on first use
-    and kept for the renderings that follow. Thread-safe; the original is
-    copied, so the caller may change its array afterwards.
+    The passes of a stack are renderings of the same input: the original's
+    fine-scale energy, Sobel edges and contour orientation are computed on
+    first use and kept for the renderings that follow, and the arrays of a
+    rendering's maps serve the next one. Thread-safe (several threads may
+    describe renderings at once); the original is copied, so the caller may
+    change its array afterwards.
 
     Parameters
     ----------
     original : array_like
-        The input plane (2-D, real dtype, at least 3 x 3).
+        The input plane: 2-D, real dtype, at least 3 x 3, on the tone scale
+        of the renderings.
     workers : int, optional
-        Threads the heavy maps are split between (rows in bands); all
-        cores by default. The results do not depend on it.
+        Threads the heavy maps are split between (bands of rows); all cores
+        by default. The results do not depend on it.
 
     Examples
     --------
-    >>> comparison = Comparison(original)                    # doctest: +SKIP
-    >>> rows = [comparison.describe(p) for p in passes]      # doctest: +SKIP
-    >>> for name, value in comparison.describe_steps(rendered):  # doctest: +SKIP
-    ...     if cancelled(): break
+    >>> from skimage import data
+    >>> from napari_labyrinth import labyrinth_stack
+    >>> image = data.camera()
+    >>> stack = labyrinth_stack(image, passes=2)
+    >>> comparison = Comparison(image)
+    >>> rows = [comparison.describe(rendered) for rendered in stack[1:]]
+    >>> list(rows[0]) == list(METRICS)
+    True
     """
 
     def __init__(self, original, *, workers: int | None = None):
@@ -668,11 +725,21 @@ class Comparison:
         return self._maps.plane.shape
 
     def describe_steps(self, rendered) -> Iterator[tuple[str, float]]:
-        """Yield ``(name, value)`` for each metric, in the order of :data:`METRICS`.
+        """Yield ``(name, value)`` for each metric of ``rendered``, in the order of :data:`METRICS`.
 
-        The rendering is copied when the generator starts; the work of a
-        metric is done when it is asked for, so closing the generator (or
-        stopping to iterate) between two metrics skips the rest.
+        ``rendered`` is checked and copied by the call; each metric's work
+        is done when the generator is asked for it, so a caller that stops
+        iterating (or closes the generator) between two metrics skips the
+        work of the rest. No thread outlives a step.
+
+        Examples
+        --------
+        >>> from skimage import data
+        >>> from napari_labyrinth import labyrinth
+        >>> image = data.camera()
+        >>> for name, value in Comparison(image).describe_steps(labyrinth(image)):
+        ...     if name == "labyrinth_cover":
+        ...         break  # the other metrics are not computed
         """
         after_array = _plane(rendered, "rendered")
         _same_shape(self._maps.plane, after_array)
@@ -699,24 +766,37 @@ class Comparison:
         return dict(self.describe_steps(rendered))
 
 
-def describe_steps(original, rendered, *, workers: int | None = None) -> Iterator[tuple[str, float]]:
+def describe_steps(
+    original, rendered, *, workers: int | None = None
+) -> Iterator[tuple[str, float]]:
     """Yield ``(name, value)`` for each metric of a rendering of ``original``, one at a time.
 
     The same values, in the same order, as :func:`describe`; a caller that
     stops iterating (or closes the generator) between two metrics skips the
-    work of the others. The maps of ``original`` are kept, by content, for
-    the next renderings of it (see :class:`Comparison`).
+    work of the others (see :meth:`Comparison.describe_steps`). The maps of
+    the last ``original`` are kept, by content, for the next renderings of
+    it: a stack's passes compute them once. :class:`Comparison` does the
+    same without comparing the original each time.
     """
     return _comparison_of(original, workers).describe_steps(rendered)
 
 
 def describe(original, rendered, *, workers: int | None = None) -> dict[str, float]:
-    """Every metric of a rendering of ``original``, as a dict of floats."""
+    """Every metric of a rendering of ``original``, as a dict of floats.
+
+    The keys are :data:`METRICS`, in that order. The metrics share the maps
+    they have in common, and the maps of the last ``original`` are kept for
+    the next renderings of it (see :func:`describe_steps`). ``workers``:
+    threads, all cores by default; the results do not depend on it.
+    """
     return dict(describe_steps(original, rendered, workers=workers))
 
 
 def _comparison_of(original, workers) -> Comparison:
     """The :class:`Comparison` of ``original``, reused while its content is the same."""
-    array = _plane(original, "original")
-    key = ("comparison", workers, *_ContentCache.key(array))
-    return _ORIGINALS.get(key, lambda: Comparison(array, workers=workers))
+
+    def make(array):
+        comparison = Comparison(array, workers=workers)
+        return comparison._maps.plane, comparison
+
+    return _ORIGINALS.get(workers, _plane(original, "original"), make)
