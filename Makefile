@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test bench bench-scale bench-widget study gallery screenshot install install-test system-packages clean
+.PHONY: demo test bench bench-scale bench-widget bench-metrics study gallery screenshot install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
@@ -19,6 +19,10 @@ bench: $(VENV)/.installed
 
 bench-scale: $(VENV)/.installed-test
 	$(PY) benchmarks/bench_scale.py --planes 200
+
+# metrics.describe against the previous implementation (512² and 2048²; --sizes 4096 adds minutes).
+bench-metrics: $(VENV)/.installed-test
+	$(PY) benchmarks/bench_metrics.py --sizes 512 2048
 
 # The widget in a real viewer under Xvfb: preview latency, stack time, cancel, event-loop gaps.
 bench-widget: $(VENV)/.installed-test system-packages

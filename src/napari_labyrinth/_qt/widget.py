@@ -30,6 +30,7 @@ from qtpy.QtCore import QEvent, Qt
 from qtpy.QtWidgets import QProgressBar, QScrollArea, QVBoxLayout, QWidget
 from superqt import QCollapsible
 
+from .._warmup import start_in_background
 from ..core.presets import DEFAULT_PRESET
 from ..plan import MODES, SWEEP_PARAMETERS, Choices, RenderPlan, default_sweep_text, make_plan
 from ..run import Failure, Outcome
@@ -149,6 +150,7 @@ class LabyrinthWidget(QWidget):
         self.viewer.dims.events.current_step.connect(self._on_step)
         layer_events.removed.connect(self._on_layer_removed)
         LabyrinthWidget.instances.add(self)
+        start_in_background()  # numba's first compile, out of this process
 
     # -- construction ------------------------------------------------------------------------
 
