@@ -96,11 +96,12 @@ def test_the_sweep_value_of_the_plane_on_screen_is_shown(qtbot, viewer, widget):
     run(qtbot, widget)
     result = viewer.layers["cell · sweep V"]
     assert viewer.layers.selection.active is result  # a new result is the active layer
-    assert viewer.text_overlay.visible and viewer.text_overlay.text == "V = 0.05"
+    overlay = widget.sweep_label.overlay
+    assert overlay.visible and overlay.text == "V = 0.05"
     viewer.dims.set_current_step(0, 0)
-    assert viewer.text_overlay.text == "V = 0.03"
+    assert overlay.text == "V = 0.03"
     viewer.layers.selection.active = viewer.layers["cell"]
-    assert not viewer.text_overlay.visible
+    assert not overlay.visible
 
 
 def test_the_metrics_of_a_stack_clear_when_the_mode_or_the_input_changes(qtbot, viewer, widget):

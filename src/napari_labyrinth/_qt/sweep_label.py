@@ -33,8 +33,16 @@ class SweepLabel:
         axis = self.viewer.dims.ndim - layer.ndim  # the sweep axis leads the layer's axes
         return sweep_label(record, self.viewer.dims.current_step[axis])
 
+    @property
+    def overlay(self):
+        """napari's text overlay (``viewer.canvas.overlays["text"]`` since napari 0.6)."""
+        canvas = getattr(self.viewer, "canvas", None)
+        if canvas is not None and "text" in getattr(canvas, "overlays", {}):
+            return canvas.overlays["text"]
+        return self.viewer.text_overlay
+
     def refresh(self, *_args) -> None:
-        overlay = self.viewer.text_overlay
+        overlay = self.overlay
         text = self.text()
         if text:
             overlay.text = text
