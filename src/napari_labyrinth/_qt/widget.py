@@ -26,7 +26,7 @@ from magicgui.widgets import (
 from napari.layers import Image
 from napari.utils.notifications import show_error, show_info
 from napari.viewer import Viewer
-from qtpy.QtCore import QEvent, Qt
+from qtpy.QtCore import Qt
 from qtpy.QtWidgets import QProgressBar, QScrollArea, QVBoxLayout, QWidget
 from superqt import QCollapsible
 
@@ -37,6 +37,7 @@ from ..run import Failure, Outcome
 from .compare import CompareView
 from .form import ParameterForm
 from .inputs import InputSection
+from .lifecycle import ClosesWithItsDock
 from .metrics_plot import MetricsPlot
 from .metrics_table import MetricsTable
 from .preview import Preview
@@ -46,7 +47,7 @@ from .worker import add_result_layer, render_worker, stop
 __all__ = ["LabyrinthWidget"]
 
 
-class LabyrinthWidget(QWidget):
+class LabyrinthWidget(ClosesWithItsDock, QWidget):
     #: Every widget alive: the Layers ▸ Filter commands find a viewer's widget here.
     instances: weakref.WeakSet[LabyrinthWidget] = weakref.WeakSet()
 
@@ -97,7 +98,6 @@ class LabyrinthWidget(QWidget):
 
     def __init__(self, napari_viewer: Viewer) -> None:
         super().__init__()
-        self._watched_window = 0  # id of the window whose Close is watched (no reference kept)
         self.viewer = napari_viewer
         self.worker = None
         self.last_result: Image | None = None
@@ -452,26 +452,6 @@ class LabyrinthWidget(QWidget):
         self.preview.close()
         self.sweep_label.disconnect()
         self.viewer.dims.events.current_step.disconnect(self._on_step)
-
-    def event(self, event) -> bool:
-        if event.type() == QEvent.Type.ParentChange and self.parent() is None:
-            self.close_down()  # napari took the widget out of its dock: the dock was closed
-        return super().event(event)
-
-    def showEvent(self, event) -> None:  # noqa: N802 - Qt's name
-        self._watch_window()  # docked by now: the viewer's main window
-        super().showEvent(event)
-
-    def _watch_window(self) -> None:
-        window = self.window()
-        if window is not self and id(window) != self._watched_window:
-            window.installEventFilter(self)
-            self._watched_window = id(window)
-
-    def eventFilter(self, watched, event) -> bool:  # noqa: N802 - Qt's name
-        if event.type() == QEvent.Type.Close and watched is self.window():
-            self.close_down()  # the viewer's window closes
-        return super().eventFilter(watched, event)
 
     # -- compare -----------------------------------------------------------------------------
 
