@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from . import __version__, metrics
+from .api import MODES
 from .core.colour import resolve_colour
 from .core.parameters import PARAMETERS, SWEEPABLE, format_value
 from .core.planes import first_plane_index, step_count
@@ -53,10 +54,6 @@ __all__ = [
 
 #: Key of the result layers' ``metadata`` under which a run is recorded.
 METADATA_KEY = "napari_labyrinth"
-
-#: What a run produces: one rendering, the input and every pass (Fig. 4), or
-#: one rendering per value of a parameter (Fig. 3).
-MODES = ("single", "stack", "sweep")
 
 #: Which planes of an nD layer to render.
 ALL_PLANES, CURRENT_PLANE = "all planes", "current plane"
