@@ -25,6 +25,7 @@ import numpy as np
 from .codes import DIAGNOSTIC_FIELDS, OPTION_CODES
 
 __all__ = [
+    "AUTO",
     "DIAGNOSTIC_FIELDS",
     "PARAMETERS",
     "PARAMETER_NAMES",
@@ -39,6 +40,10 @@ __all__ = [
 #: Default lower limit L_inf^1 of the first tone range ("a low value different
 #: from zero", Sec. 2); the last range ends at 255.
 LOWEST_TONE = 10.0
+
+#: The value of a parameter with ``automatic=True`` that asks for it to be
+#: chosen from the image (``napari_labyrinth.find_window`` for V).
+AUTO = "auto"
 
 #: Words a boolean may be typed as.
 _BOOLEAN_WORDS = {"true": True, "yes": True, "1": True, "false": False, "no": False, "0": False}
@@ -83,6 +88,9 @@ class Parameter:
         A point the paper leaves open (the widget's advanced section).
     symbol : str, optional
         The paper's letter, in layer names (``"V"``).
+    automatic : bool
+        Whether the value may be ``AUTO``: chosen from the image before the
+        rendering (never by :func:`make_parameters`, which needs a number).
     """
 
     name: str
@@ -96,12 +104,15 @@ class Parameter:
     choices: tuple[str, ...] | None = None
     reading: bool = False
     symbol: str | None = None
+    automatic: bool = False
 
     @property
     def type_text(self) -> str:
         """The type as numpydoc writes it in a Parameters section."""
         if self.kind == "choice":
             return "{" + ", ".join(f'"{choice}"' for choice in self.choices) + "}"
+        if self.automatic:
+            return f'{self.kind} or "{AUTO}"'
         return {
             "float": "float",
             "int": "int",
@@ -148,6 +159,8 @@ class Parameter:
             Naming the parameter and what it expects.
         """
         text = text.strip()
+        if self.automatic and text.lower() == AUTO:
+            return AUTO
         if self.kind == "tones":
             raise ValueError(
                 f"{self.name} cannot be given as text: set tone_ranges (its tones follow), "
@@ -175,7 +188,7 @@ class Parameter:
     @property
     def expected(self) -> str:
         """What a text value must be, in words."""
-        return {
+        text = {
             "float": "a number",
             "int": "a whole number",
             "seed": "a whole number",
@@ -183,6 +196,7 @@ class Parameter:
             "tone_ranges": "a count of ranges or comma-separated limits",
             "tones": "pairs of tones",
         }.get(self.kind) or " or ".join(self.choices)
+        return f"{text} or {AUTO}" if self.automatic else text
 
 
 def _entry(**spec: Any) -> Any:
@@ -214,8 +228,10 @@ class LabyrinthParameters:
         equation="Eq. 4",
         doc=(
             "where the variance ratio R2 exceeds V, g is left as it is (or pushed away "
-            "from M); the labyrinth appears only in a narrow range of V (Fig. 3)"
+            "from M); the labyrinth appears only in a narrow range of V (Fig. 3); "
+            "'auto' measures that range on the image and takes its best V"
         ),
+        automatic=True,
     )
     tone_ranges: tuple[float, ...] = _entry(
         kind="tone_ranges",
@@ -392,6 +408,20 @@ def equal_tone_ranges(count: int) -> tuple[float, ...]:
     return tuple(float(v) for v in np.linspace(LOWEST_TONE, 255.0, count + 1))
 
 
+def is_auto(value: Any) -> bool:
+    """Whether ``value`` asks for a parameter to be chosen from the image."""
+    return isinstance(value, str) and value == AUTO
+
+
+def without_auto(values: Mapping[str, Any]) -> dict[str, Any]:
+    """``values`` without the parameters set to ``AUTO`` (to validate the others first)."""
+    return {
+        name: value
+        for name, value in values.items()
+        if not (name in PARAMETERS and PARAMETERS[name].automatic and is_auto(value))
+    }
+
+
 def make_parameters(**values: Any) -> LabyrinthParameters:
     """Validate ``values`` and build a :class:`LabyrinthParameters`.
 
@@ -423,8 +453,14 @@ def _is_real(value: Any) -> bool:
 
 
 def _float(parameter: Parameter, value: Any) -> float:
+    if parameter.automatic and is_auto(value):
+        raise ValueError(
+            f"{parameter.name}={AUTO!r} is chosen from the image: pass the image to "
+            "labyrinth() or find_window() rather than building parameters without it"
+        )
     if not _is_real(value):
-        raise TypeError(f"{parameter.name} must be a real number, got {value!r}")
+        also = f" or {AUTO!r}" if parameter.automatic else ""
+        raise TypeError(f"{parameter.name} must be a real number{also}, got {value!r}")
     value = float(value)
     in_bounds = (parameter.low is None or value >= parameter.low) and (
         parameter.high is None or value <= parameter.high
