@@ -22,7 +22,7 @@ import numpy as np
 from . import _engine
 from ._engine import DIAGNOSTICS_DTYPE, Progress, run_pass
 from .core.colour import TONES, LuminancePlanes, resolve_colour
-from .core.parameters import SEED, LabyrinthParameters
+from .core.parameters import SEED, LabyrinthParameters, is_auto, without_auto
 from .core.planes import (
     PlaneLayout,
     normalise_channel_axis,
@@ -144,8 +144,10 @@ def labyrinth(
         result is a pure function of the input, the parameters and the seed.
     mean_threshold : float, optional
         t of Eq. 2 (paper: 0.12).
-    variance_threshold : float, optional
-        V of Eq. 4 (paper: 0.50).
+    variance_threshold : float or "auto", optional
+        V of Eq. 4 (paper: 0.50). ``"auto"``: the best V of the window
+        :func:`napari_labyrinth.find_window` measures on a probe of this
+        image with the other parameters (one V for every plane).
     tone_ranges : int or sequence of float, optional
         The ranges of Eq. 3: a count of equal tone ranges from a low non-zero tone (10) to 255,
         or the limits ``L_inf^1 < L_sup^1 = L_inf^2 < ... <= 255`` themselves
@@ -418,6 +420,8 @@ def labyrinth_steps(
         raise TypeError("parameter and values are for mode='sweep'")
     render = {name: options.pop(name, default) for name, default in RENDER_OPTIONS.items()}
     overrides = options
+    if is_auto(overrides.get("variance_threshold")):
+        overrides = dict(overrides, variance_threshold=_auto_threshold(image, render, overrides))
     if mode == "sweep":
         runs = resolve_sweep(
             render["preset"], overrides, render["seed"], parameter or "variance_threshold", values
@@ -566,6 +570,15 @@ def _finish(
         if progress is not None:
             progress(event.done, event.total)
     raise AssertionError("labyrinth_steps ended without a result")  # pragma: no cover
+
+
+def _auto_threshold(image, render: dict[str, Any], overrides: dict[str, Any]) -> float:
+    """The V of ``variance_threshold="auto"``: the best of :func:`find_window`'s window."""
+    from .window import window_for  # window builds on this module
+
+    given = without_auto(overrides)
+    resolve_parameters(render["preset"], **given)  # bad parameters are named first
+    return window_for(image, **render, **given).best
 
 
 def _validate_workers(workers: Any) -> int:
