@@ -12,6 +12,7 @@ import argparse
 import os
 from typing import Any
 
+from ..core.parameters import AUTO
 from . import PROG, UsageError, one_line
 from .demo import DEMO_STACK_PASSES
 
@@ -184,6 +185,8 @@ def _flag(name: str) -> str:
 
 
 def _metavar(parameter) -> str:
+    if parameter.automatic:
+        return f"{parameter.symbol or 'X'}|{AUTO}"
     if parameter.kind == "choice":
         return "{" + ",".join(parameter.choices) + "}"
     return {
@@ -244,6 +247,7 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
     UsageError
         One line naming the parameter and what it expects.
     """
+    from ..core.parameters import without_auto
     from ..core.presets import DEFAULT_PRESET, resolve_parameters, resolve_sweep
     from ..core.tone_scale import validate_tone_limits
 
@@ -253,10 +257,10 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
         seed = options.pop("seed", None)
         if args.sweep is not None:
             name, values = _sweep_values(args, options)
-            resolve_sweep(preset, options, 0 if seed is None else seed, name, values)
+            resolve_sweep(preset, without_auto(options), 0 if seed is None else seed, name, values)
             options.update(parameter=name, values=values)
         else:
-            resolve_parameters(preset, **options)
+            resolve_parameters(preset, **without_auto(options))  # "auto": chosen per image
     except (ValueError, TypeError) as exc:
         raise UsageError(one_line(str(exc))) from None
     if args.preset is not None:

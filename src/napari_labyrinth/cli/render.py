@@ -293,6 +293,7 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
                 low, high = default_tone_limits(image, channel_axis)
             kwargs["tone_limits"] = (low, high)
             _note(f"{job.input}: tone limits {low!r} {high!r}")
+        _choose_auto_threshold(job, image, kwargs)
         for event in api.labyrinth_steps(image, mode, **kwargs):
             if isinstance(event, api.Result):
                 result = event.image
@@ -310,6 +311,19 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     finally:
         if chunked:
             release_files()
+
+
+def _choose_auto_threshold(job: _Job, image, kwargs: dict[str, Any]) -> None:
+    """``variance_threshold=auto``: choose V on this image (find_window) and report it."""
+    from ..core.parameters import is_auto
+    from ..window import window_for
+
+    if not is_auto(kwargs.get("variance_threshold")):
+        return
+    options = {k: v for k, v in kwargs.items() if k not in ("parameter", "values")}
+    window = window_for(image, **options)
+    kwargs["variance_threshold"] = window.best
+    _note(f"{job.input}: variance threshold auto: {window.summary()}")
 
 
 def _note(message: str) -> None:
