@@ -35,6 +35,7 @@ from ..core.presets import DEFAULT_PRESET
 from ..plan import MODES, SWEEP_PARAMETERS, Choices, RenderPlan, default_sweep_text, make_plan
 from ..run import Failure, Outcome
 from .compare import CompareView
+from .auto_window import AutoWindow
 from .form import ParameterForm
 from .inputs import InputSection
 from .lifecycle import ClosesWithItsDock
@@ -114,6 +115,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self.preset, self.edited = self.form.preset, self.form.edited
         self.fields, self.seed = self.form.fields, self.form.seed
         self.preset.changed.connect(self._apply_preset)
+        self.auto_window = AutoWindow(self.form, self.inputs.snapshot, self.choices, self._say)
         self._build_mode_section()
         self.metrics_table = MetricsTable()
         self.metrics_title = self.metrics_table.title
@@ -242,6 +244,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         layout.setContentsMargins(4, 4, 4, 4)
         layout.addWidget(self.inputs.box.native)
         layout.addWidget(self.form.parameter_box.native)
+        layout.addWidget(self.auto_window.plot)
         layout.addWidget(self.reading_section)
         layout.addWidget(self.mode_box.native)
         layout.addWidget(self.progress_bar)
