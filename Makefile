@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test bench bench-scale bench-widget bench-metrics study gallery screenshot install install-test system-packages clean
+.PHONY: demo test bench bench-scale bench-widget bench-metrics bench-window study gallery screenshot install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
@@ -27,6 +27,10 @@ bench-metrics: $(VENV)/.installed-test
 # The widget in a real viewer under Xvfb: preview latency, stack time, cancel, event-loop gaps.
 bench-widget: $(VENV)/.installed-test system-packages
 	xvfb-run -a $(PY) benchmarks/bench_widget.py
+
+# find_window: its probe's window against the full sweep's on the study images, and its time.
+bench-window: $(VENV)/.installed
+	$(PY) benchmarks/bench_window.py
 
 # The study behind the presets (docs/study/) and the paper's figures (docs/gallery/).
 study: $(VENV)/.installed
