@@ -43,3 +43,14 @@ def test_auto_sets_v_to_the_window_s_best_and_the_run_records_it(qtbot, viewer, 
 def test_auto_without_a_layer_says_what_is_missing(widget):
     assert widget.auto_window.find() is None
     assert "Auto V" in widget.status.value and "image layer" in widget.status.value
+
+
+def test_closing_the_widget_during_a_search_leaves_it_alone(qtbot, viewer, widget):
+    viewer.add_image(samples.smectic_batonnets((96, 96)), name="batonnets")
+    before = widget.fields["variance_threshold"].value
+    worker = widget.auto_window.find(start=False)
+    with qtbot.waitSignal(worker.finished, timeout=RUN_TIMEOUT_MS):
+        worker.start()
+        widget.close_down()
+    assert widget.auto_window.worker is None and widget.auto_window.window is None
+    assert widget.fields["variance_threshold"].value == before

@@ -99,6 +99,18 @@ class AutoWindow:
             worker.start()
         return worker
 
+    def close(self) -> None:
+        """The widget is closing: a search in flight ends without touching it."""
+        worker, self.worker = self.worker, None
+        if worker is not None:
+            for signal, slot in (
+                (worker.returned, self._on_found),
+                (worker.errored, self._on_failed),
+                (worker.finished, self._on_finished),
+            ):
+                signal.disconnect(slot)
+            worker.quit()
+
     def _on_found(self, window: Window) -> None:
         self.window = window
         self.form.fields[FIELD].value = window.best

@@ -453,6 +453,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self._closed = True
         self._cancel_because("the widget was closed")
         self.preview.close()
+        self.auto_window.close()
         self.sweep_label.disconnect()
         self.viewer.dims.events.current_step.disconnect(self._on_step)
 
