@@ -189,6 +189,6 @@ class WindowPlot(QWidget):
         painter.setPen(QPen(text, 1, Qt.PenStyle.DashLine))
         painter.drawLine(QPointF(best, frame.top()), QPointF(best, frame.bottom()))
         painter.setPen(QPen(text, 1))
-        caption = f"edge enhancement against V: {window.summary()}"
+        caption = window.summary()
         painter.drawText(QPointF(frame.left(), self.height() - 8), caption)
         painter.end()
