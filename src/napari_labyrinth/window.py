@@ -195,7 +195,7 @@ def find_window(
     crops = _positive_int("crops", crops, 1)
     crop_size = _positive_int("crop_size", crop_size, 16)
     max_planes = _positive_int("max_planes", max_planes, 1)
-    workers = os.cpu_count() or 1 if workers is None else _positive_int("workers", workers, 1)
+    workers = (os.cpu_count() or 1) if workers is None else _positive_int("workers", workers, 1)
     values = _thresholds(thresholds, base.variance_threshold)
 
     planes = _tone_planes(image, channel_axis, colour, tone_limits, max_planes)
@@ -206,7 +206,7 @@ def find_window(
         for plane, top, left in where
     ]
     mosaic = np.concatenate(originals, axis=0)
-    comparison = _EdgeComparison(mosaic)
+    comparison = _EdgeComparison(mosaic, workers)
 
     def render(index, parameters):
         work = originals[index].copy()
@@ -372,9 +372,9 @@ def _contrast(cell: np.ndarray) -> float:
 class _EdgeComparison:
     """Edge enhancement of renderings of one original, its maps kept between calls."""
 
-    def __init__(self, original: np.ndarray):
+    def __init__(self, original: np.ndarray, workers: int):
         self.original = original
-        self._comparison = metrics.Comparison(original, workers=1)
+        self._comparison = metrics.Comparison(original, workers=workers)
 
     def edge_enhancement(self, rendered: np.ndarray) -> float:
         return dict(self._comparison.describe_steps(rendered))["edge_enhancement"]
