@@ -536,14 +536,21 @@ def test_installed_console_script(tmp_path):
 
 
 def test_every_one_word_parameter_has_a_flag_with_its_defaults_in_help(capsys):
-    from napari_labyrinth.core.parameters import SWEEPABLE
-    from napari_labyrinth.core.presets import DEFAULT_PRESET
+    from napari_labyrinth.core.parameters import PARAMETERS, SWEEPABLE, format_value
+    from napari_labyrinth.core.presets import DEFAULT_PRESET, PRESETS
 
     assert main(["render", "--help"]) == 0
     out = " ".join(capsys.readouterr().out.split())
     for name, parameter in SWEEPABLE.items():
         assert "--" + name.replace("_", "-") in out, name
-    assert f"Paper: 0.5. (default 0.04 with the {DEFAULT_PRESET} preset)" in out
+    assert f"(default 0.04 with the {DEFAULT_PRESET} preset; paper 0.5)" in out
+    assert f"(default 4 with the {DEFAULT_PRESET} preset; paper 1)" in out  # passes
+    for name, parameter in PARAMETERS.items():
+        if parameter.kind == "tones":
+            continue
+        default = format_value(PRESETS[DEFAULT_PRESET][name])
+        text = f"default {default} with the {DEFAULT_PRESET} preset; paper "
+        assert text + format_value(parameter.paper) in out, name
 
 
 @pytest.mark.parametrize(
