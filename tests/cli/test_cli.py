@@ -13,6 +13,7 @@ import pytest
 
 from napari_labyrinth import __version__, labyrinth, labyrinth_stack, labyrinth_sweep
 from napari_labyrinth.cli import main
+from napari_labyrinth.cli.demo import LABEL_HEIGHT
 from napari_labyrinth.io import read_image, write_image
 
 RNG = np.random.default_rng(42)
@@ -472,10 +473,19 @@ def test_demo_writes_the_files_it_prints(tmp_path, capsys):
         assert stack.shape == (5,) + source.shape
         comparison = read_image(out / f"{sample}_comparison.png")
         height, width = source.shape
-        assert comparison.shape == (height, 3 * width + 2 * 4) and comparison.dtype == np.uint8
-        np.testing.assert_array_equal(comparison[:, :width], source)
+        band = LABEL_HEIGHT
+        assert comparison.shape == (band + height, 3 * width + 2 * 4)
+        assert comparison.dtype == np.uint8
+        np.testing.assert_array_equal(comparison[band:, :width], source)
+        np.testing.assert_array_equal(comparison[band:, width + 4 : 2 * width + 4], stack[1])
         np.testing.assert_array_equal(comparison[:, width : width + 4], 255)
-        np.testing.assert_array_equal(comparison[:, -width:], stack[4])
+        np.testing.assert_array_equal(comparison[band:, -width:], stack[4])
+        for panel in range(3):  # each label band holds dark text on white
+            label = comparison[:band, panel * (width + 4) : panel * (width + 4) + width]
+            assert label.max() == 255 and label.min() < 100
+        # every rendering reproduces from its record
+        for name in (f"{sample}_labyrinth.png", f"{sample}_labyrinth_stack.tif"):
+            assert main(["reproduce", str(out / name)]) == 0
 
 
 def test_demo_refuses_existing_files(tmp_path, capsys):
