@@ -1111,6 +1111,9 @@ def _zarr_metadata(path: Path) -> ImageMetadata:
                     sizes[letter] = (float(factor), unit)
         else:
             ome = False
+    elif isinstance(attributes.get("axes"), str) and len(attributes["axes"]) == array.ndim:
+        axes = attributes["axes"]  # written by _zarr_attributes where OME-Zarr does not fit
+        sizes = {k: (float(v[0]), v[1]) for k, v in attributes.get("pixel_sizes", {}).items()}
     return ImageMetadata(
         axes=axes,
         pixel_sizes=sizes,
@@ -1212,8 +1215,9 @@ def _zarr_attributes(ndim: int, metadata: ImageMetadata | None) -> tuple[dict, s
         attributes[KEY] = metadata.provenance
     axes = metadata.axes
     if not (metadata.ome and axes and len(axes) == ndim and _ome_zarr_ok(axes)):
-        if axes:
+        if axes and len(axes) == ndim:  # read back by _zarr_metadata
             attributes["axes"] = axes
+            attributes["pixel_sizes"] = {k: list(v) for k, v in metadata.pixel_sizes.items()}
         return attributes, ""
     entries, scale = [], []
     for letter in axes:
