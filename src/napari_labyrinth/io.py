@@ -923,6 +923,8 @@ class ImageMetadata:
     ambiguous : bool
         A last axis of 3 or 4 that no metadata names colour or not: it is
         read as planes, and ``channel_axis=-1`` reads it as colour.
+    grey_alpha : bool
+        A grey image with an alpha channel (the last axis: grey, alpha).
     """
 
     axes: str | None = None
@@ -932,6 +934,7 @@ class ImageMetadata:
     ome: bool = False
     provenance: dict | None = None
     ambiguous: bool = False
+    grey_alpha: bool = False
 
     def for_output(self, extra_axis: str | None, provenance: dict | None) -> ImageMetadata:
         """The metadata of a rendering of this image.
@@ -1083,6 +1086,7 @@ def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
         channel_axis=-1 if colour else None,
         colour=f"{kind} colour type {colour}" if colour else f"{kind} grey ({mode})",
         provenance=_record(text, path),
+        grey_alpha=mode == "LA",
     )
 
 

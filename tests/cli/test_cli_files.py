@@ -217,3 +217,19 @@ def test_progress_bars_say_what_they_count(tmp_path, capsys, monkeypatch, source
     assert PROGRESS_LABELS["pass" if counted == "passes" else "plane"] == counted
     if counted == "passes":
         assert "planes" not in err
+
+
+@pytest.mark.parametrize("stack", [False, True])
+def test_grey_plus_alpha_renders_the_grey_and_keeps_the_alpha(tmp_path, capsys, stack):
+    import imageio.v3 as iio
+
+    grey, alpha = noise((16, 16), seed=1), noise((16, 16), seed=2)
+    iio.imwrite(tmp_path / "la.png", np.stack([grey, alpha], -1), mode="LA")
+    output = tmp_path / ("out.tif" if stack else "out.png")
+    argv = [tmp_path / "la.png", "-o", output, *OPTIONS] + (["--stack"] if stack else [])
+    assert render(*argv) == EXIT_OK
+    written = read_image(output)
+    expected = (labyrinth_stack if stack else labyrinth)(grey, passes=2, seed=7)
+    np.testing.assert_array_equal(written[..., 0], expected)
+    np.testing.assert_array_equal(written[..., 1], np.broadcast_to(alpha, expected.shape))
+    assert main(["reproduce", str(output)]) == EXIT_OK
