@@ -36,8 +36,10 @@ def build_parser() -> argparse.ArgumentParser:
             "Render image files (TIFF, PNG, JPEG, BMP) and zarr stores. Parameters not "
             f"given come from the preset (default {DEFAULT_PRESET!r}). The result keeps "
             "the input's shape and dtype; stacks and sweeps are written as TIFF or zarr. "
-            "zarr stores and TIFF stacks over 1 GiB are rendered block by block, in "
-            "bounded memory."
+            "Colour, OME axes and pixel sizes are read from the file and written back; "
+            "outputs are lossless (JPEG only with --lossy) and record how they were made "
+            "(see 'reproduce'). zarr stores and TIFF stacks over 1 GiB are rendered block "
+            "by block, in bounded memory."
         ),
     )
     render.set_defaults(command="render")
