@@ -116,11 +116,13 @@ def write_cases(directory: Path) -> list[tuple[str, str, Path, Path]]:
     case("zarr", "(48, 64, 3), uint8", "rgb.zarr", "rgb_labyrinth.zarr")
     for version in ("0.4", "0.5"):
         name = f"v{version[-1]}.ome.zarr"
-        group = zarr.open_group(directory / name, mode="w", zarr_format=2 if version == "0.4" else 3)
+        zarr_format = 2 if version == "0.4" else 3
+        group = zarr.open_group(directory / name, mode="w", zarr_format=zarr_format)
         group.create_array("0", shape=stack.shape, dtype="uint16")[...] = stack
         axes = [{"name": n, "type": "space", "unit": "micrometer"} for n in "zyx"]
         scale = {"type": "scale", "scale": [2.0, 0.325, 0.325]}
-        multiscale = {"axes": axes, "datasets": [{"path": "0", "coordinateTransformations": [scale]}]}
+        dataset = {"path": "0", "coordinateTransformations": [scale]}
+        multiscale = {"axes": axes, "datasets": [dataset]}
         if version == "0.4":
             group.attrs["multiscales"] = [dict(multiscale, version="0.4")]
         else:
@@ -146,7 +148,8 @@ def sizes_text(sizes) -> str:
 def run_case(fmt, what, source: Path, output: Path) -> dict:
     metadata = read_metadata(source)
     target = output.parent if fmt == "JPEG" else output  # JPEG: a directory batch
-    code, err = quiet(["render", str(source), "-o", str(target) + ("/" if fmt == "JPEG" else ""), *OPTIONS])
+    target = str(target) + ("/" if fmt == "JPEG" else "")
+    code, err = quiet(["render", str(source), "-o", target, *OPTIONS])
     row = {
         "format": fmt,
         "input": what,
@@ -160,7 +163,7 @@ def run_case(fmt, what, source: Path, output: Path) -> dict:
         "note": "ambiguous: note" if "no colour metadata" in err else "",
     }
     if code != 0:
-        row.update(output=output.relative_to(output.parents[1]).as_posix(), pixels=f"render failed: {err.strip()}")
+        row.update(output=output.name, pixels=f"render failed: {err.strip()}")
         return row
     written = np.asarray(open_image(output, lazy=False))
     image = np.asarray(open_image(source, lazy=False))
@@ -174,7 +177,9 @@ def run_case(fmt, what, source: Path, output: Path) -> dict:
         output=output.name if fmt != "JPEG" else f"jpeg/{output.name} (directory batch)",
         pixels="yes" if np.array_equal(written, expected) else "NO",
         axes_kept="yes" if back.axes == metadata.axes else f"{back.axes} (was {metadata.axes})",
-        sizes_kept="yes" if back.pixel_sizes == metadata.pixel_sizes else sizes_text(back.pixel_sizes),
+        sizes_kept=(
+            "yes" if back.pixel_sizes == metadata.pixel_sizes else sizes_text(back.pixel_sizes)
+        ),
         reproduce="identical" if code == 0 else "DIFFERS",
     )
     return row
@@ -187,7 +192,8 @@ def jpeg_loss(directory: Path) -> str:
 
     iio.imwrite(directory / "camera.png", data.camera())
     quiet(["render", str(directory / "camera.png"), "-o", str(directory / "camera_l.png")])
-    quiet(["render", str(directory / "camera.png"), "-o", str(directory / "camera_l.jpg"), "--lossy"])
+    jpeg = str(directory / "camera_l.jpg")
+    quiet(["render", str(directory / "camera.png"), "-o", jpeg, "--lossy"])
     png = read_image(directory / "camera_l.png").astype(int)
     jpg = read_image(directory / "camera_l.jpg").astype(int)
     diff = np.abs(png - jpg)
@@ -218,8 +224,9 @@ def main_(argv=None) -> None:
         for row in rows:
             print("| " + " | ".join(str(row.get(c, "")) for c in columns) + " |")
         print()
-        print("pixels: the output equals labyrinth(input, channel_axis=detected, passes=2, seed=1)")
-        print("axes_kept / sizes_kept: read back from the output; reproduce: `napari-labyrinth reproduce`")
+        print("pixels: output == labyrinth(input, channel_axis=<detected>, passes=2, seed=1)")
+        print("axes_kept / sizes_kept: read back from the output")
+        print("reproduce: `napari-labyrinth reproduce OUTPUT` (exit code 0: identical)")
         print()
         print(jpeg_loss(directory))
     finally:

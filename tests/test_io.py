@@ -224,6 +224,9 @@ RECORD = {
 }
 
 
+HALF_MICRON = {"X": (0.5, "micrometer"), "Y": (0.5, "micrometer")}
+
+
 def _write_case(path, case):
     """Write one file case of ``test_metadata_of_each_file_case``."""
     import imageio.v3 as iio
@@ -257,8 +260,13 @@ def _write_case(path, case):
             path,
             rng.integers(0, 65536, (2, 3, 12, 17), np.uint16),
             ome=True,
-            metadata={"axes": "TZYX", "PhysicalSizeX": 0.25, "PhysicalSizeY": 0.25,
-                      "PhysicalSizeZ": 1.5, "PhysicalSizeZUnit": "nm"},
+            metadata={
+                "axes": "TZYX",
+                "PhysicalSizeX": 0.25,
+                "PhysicalSizeY": 0.25,
+                "PhysicalSizeZ": 1.5,
+                "PhysicalSizeZUnit": "nm",
+            },
         )
     elif case == "zarr-3":
         zarr.create_array(path, shape=(12, 17, 3), dtype="uint8")
@@ -269,7 +277,8 @@ def _write_case(path, case):
             {"name": n, "type": "space", "unit": "micrometer"} for n in "yx"
         ]
         scale = [{"type": "scale", "scale": [1.0, 0.5, 0.5]}]
-        multiscales = [{"axes": axes, "datasets": [{"path": "0", "coordinateTransformations": scale}]}]
+        dataset = {"path": "0", "coordinateTransformations": scale}
+        multiscales = [{"axes": axes, "datasets": [dataset]}]
         if case.endswith("4"):
             group.attrs["multiscales"] = [dict(multiscales[0], version="0.4")]
         else:
@@ -298,8 +307,8 @@ def _write_case(path, case):
             False,
         ),
         ("zarr-3", ".zarr", None, None, {}, True),
-        ("ome-zarr-0.4", ".zarr", "CYX", None, {"X": (0.5, "micrometer"), "Y": (0.5, "micrometer")}, False),
-        ("ome-zarr-0.5", ".zarr", "CYX", None, {"X": (0.5, "micrometer"), "Y": (0.5, "micrometer")}, False),
+        ("ome-zarr-0.4", ".zarr", "CYX", None, HALF_MICRON, False),
+        ("ome-zarr-0.5", ".zarr", "CYX", None, HALF_MICRON, False),
     ],
 )
 def test_metadata_of_each_file_case(tmp_path, case, suffix, axes, channel_axis, sizes, ambiguous):

@@ -61,7 +61,8 @@ def test_a_record_survives_json_exactly():
     assert back == record
     assert back["tone_limits"][1] == 1 / 3  # not rounded
     assert back["version"] == napari_labyrinth.__version__
-    assert back["input"] == {"name": "in.tif", "sha256": "0" * 64, "shape": [8, 9], "dtype": "uint16"}
+    source = {"name": "in.tif", "sha256": "0" * 64, "shape": [8, 9], "dtype": "uint16"}
+    assert back["input"] == source
 
 
 def test_reproduce_call_renders_what_the_record_says():

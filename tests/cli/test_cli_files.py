@@ -54,7 +54,8 @@ def test_a_directory_batch_writes_jpeg_and_bmp_inputs_as_png(tmp_path, capsys):
         "c_labyrinth.png",
     ]
     written = read_image(tmp_path / "out" / "a_labyrinth.png")
-    np.testing.assert_array_equal(written, labyrinth(read_image(tmp_path / "a.jpg"), passes=2, seed=7))
+    expected = labyrinth(read_image(tmp_path / "a.jpg"), passes=2, seed=7)
+    np.testing.assert_array_equal(written, expected)
     # with --lossy a JPEG input keeps its format
     assert render(tmp_path / "a.jpg", "-o", tmp_path / "lossy", "--lossy") == EXIT_OK
     assert [p.name for p in (tmp_path / "lossy").iterdir()] == ["a_labyrinth.jpg"]
@@ -73,8 +74,8 @@ def test_an_rgb_tiff_is_read_as_colour(tmp_path):
     np.testing.assert_array_equal(read_image(tmp_path / "out.tif"), expected)
     assert read_metadata(tmp_path / "out.tif").channel_axis == 2  # written as RGB again
     # --channel-axis none: three planes of 48 x 3 pixels, as the user asks
-    assert render(tmp_path / "rgb.tif", "-o", tmp_path / "planes.tif", *OPTIONS,
-                  "--channel-axis", "none") == EXIT_OK
+    argv = [tmp_path / "rgb.tif", "-o", tmp_path / "planes.tif", *OPTIONS]
+    assert render(*argv, "--channel-axis", "none") == EXIT_OK
     planes = labyrinth(image, passes=2, seed=7)
     np.testing.assert_array_equal(read_image(tmp_path / "planes.tif"), planes)
 
@@ -128,8 +129,8 @@ def test_ome_axes_and_pixel_sizes_survive_a_stack(tmp_path, output):
 def test_the_record_of_an_output_names_everything(tmp_path):
     image = noise((16, 16), np.uint16)
     write_image(tmp_path / "in.tif", image)
-    assert render(tmp_path / "in.tif", "-o", tmp_path / "out.tif", *OPTIONS,
-                  "--border", "mirror") == EXIT_OK
+    argv = [tmp_path / "in.tif", "-o", tmp_path / "out.tif", *OPTIONS, "--border", "mirror"]
+    assert render(*argv) == EXIT_OK
     record = read_provenance(tmp_path / "out.tif")
     assert record["schema"] == SCHEMA and record["version"] == __version__
     assert record["mode"] == "single" and record["function"] == "labyrinth"
@@ -159,7 +160,8 @@ def test_the_record_of_an_output_names_everything(tmp_path):
     ],
 )
 def test_reproduce_checks_bit_for_bit(tmp_path, capsys, monkeypatch, source, output, extra):
-    image = {"rgb.png": colour_image(), "in.png": noise((16, 16))}.get(source, noise((2, 16, 16)))
+    images = {"rgb.png": colour_image(), "in.png": noise((16, 16))}
+    image = images.get(source, noise((2, 16, 16)))
     monkeypatch.chdir(tmp_path)
     (tmp_path / "out").mkdir()
     from napari_labyrinth.io import write_array
@@ -179,8 +181,8 @@ def test_reproduce_finds_a_changed_output_and_a_changed_input(tmp_path, capsys):
 
     changed = read_image(tmp_path / "out.tif")
     changed[3, 4] ^= 1
-    write_image(tmp_path / "out.tif", changed, overwrite=True,
-                metadata=ImageMetadata(provenance=record))
+    metadata = ImageMetadata(provenance=record)
+    write_image(tmp_path / "out.tif", changed, overwrite=True, metadata=metadata)
     capsys.readouterr()
     assert main(["reproduce", str(tmp_path / "out.tif")]) == EXIT_FAILED
     out = capsys.readouterr().out

@@ -96,7 +96,9 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     reproduce.set_defaults(command="reproduce")
-    reproduce.add_argument("output", metavar="OUTPUT", help="a file or .zarr store written by render")
+    reproduce.add_argument(
+        "output", metavar="OUTPUT", help="a file or .zarr store written by render"
+    )
     reproduce.add_argument(
         "--input",
         metavar="INPUT",
