@@ -235,3 +235,16 @@ def test_grey_plus_alpha_renders_the_grey_and_keeps_the_alpha(tmp_path, capsys, 
     np.testing.assert_array_equal(written[..., 0], expected)
     np.testing.assert_array_equal(written[..., 1], np.broadcast_to(alpha, expected.shape))
     assert main(["reproduce", str(output)]) == EXIT_OK
+
+
+def test_a_bmp_output_is_written_with_a_note_that_it_holds_no_record(tmp_path, capsys):
+    write_image(tmp_path / "in.png", noise((16, 16)))
+    assert render(tmp_path / "in.png", "-o", tmp_path / "out.bmp", *OPTIONS) == EXIT_OK
+    assert "BMP holds no provenance record" in capsys.readouterr().err
+    assert main(["reproduce", str(tmp_path / "out.bmp")]) == EXIT_FAILED
+
+
+def test_a_bad_channel_axis_is_a_usage_error(tmp_path, capsys):
+    write_image(tmp_path / "in.png", noise((16, 16)))
+    assert render(tmp_path / "in.png", "-o", tmp_path / "o.png", "--channel-axis", "last") == EXIT_USAGE
+    assert "expected an integer or none, got 'last'" in capsys.readouterr().err
