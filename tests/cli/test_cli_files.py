@@ -246,5 +246,6 @@ def test_a_bmp_output_is_written_with_a_note_that_it_holds_no_record(tmp_path, c
 
 def test_a_bad_channel_axis_is_a_usage_error(tmp_path, capsys):
     write_image(tmp_path / "in.png", noise((16, 16)))
-    assert render(tmp_path / "in.png", "-o", tmp_path / "o.png", "--channel-axis", "last") == EXIT_USAGE
+    argv = [tmp_path / "in.png", "-o", tmp_path / "o.png", "--channel-axis", "last"]
+    assert render(*argv) == EXIT_USAGE
     assert "expected an integer or none, got 'last'" in capsys.readouterr().err
