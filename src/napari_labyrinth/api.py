@@ -79,10 +79,14 @@ class Result:
     diagnostics : structured ndarray, list of them, or None
         The per-pass counts (see :func:`labyrinth`); one array per rendering
         of a sweep; None for a lazy result.
+    tone_limits : (float, float) or None
+        The values mapped to tones 0 and 255 (the default limits found, or
+        those given); None for a lazy result whose limits were not given.
     """
 
     image: Any
     diagnostics: Any
+    tone_limits: tuple[float, float] | None = None
 
 
 def labyrinth(
@@ -445,7 +449,9 @@ def labyrinth_steps(
             )
             for parameters, seed in runs
         ]
-        return iter([Result(_stack(lazy) if mode == "sweep" else lazy[0], None)])
+        limits = render["tone_limits"]
+        limits = None if limits is None else tuple(float(v) for v in limits)
+        return iter([Result(_stack(lazy) if mode == "sweep" else lazy[0], None, limits)])
     array, layout, scale, grey = _prepare(
         image, render["channel_axis"], render["tone_limits"], render["colour"]
     )
@@ -490,10 +496,11 @@ def _steps(
                 break
             done += 1
             yield Progress(done, total, run, plane, pass_number, partial)
+    limits = (float(scale.low), float(scale.high))
     if mode == "sweep":
-        yield Result(_stack([image for image, _ in results]), [d for _, d in results])
+        yield Result(_stack([image for image, _ in results]), [d for _, d in results], limits)
     else:
-        yield Result(*results[0])
+        yield Result(*results[0], limits)
 
 
 def _render_luminance(

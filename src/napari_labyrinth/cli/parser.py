@@ -37,8 +37,10 @@ def build_parser() -> argparse.ArgumentParser:
             "Render image files (TIFF, PNG, JPEG, BMP) and zarr stores. Parameters not "
             f"given come from the preset (default {DEFAULT_PRESET!r}). The result keeps "
             "the input's shape and dtype; stacks and sweeps are written as TIFF or zarr. "
-            "zarr stores and TIFF stacks over 1 GiB are rendered block by block, in "
-            "bounded memory."
+            "Colour, OME axes and pixel sizes are read from the file and written back; "
+            "outputs are lossless (JPEG only with --lossy) and record how they were made "
+            "(see 'reproduce'). zarr stores and TIFF stacks over 1 GiB are rendered block "
+            "by block, in bounded memory."
         ),
     )
     render.set_defaults(command="render")
@@ -72,6 +74,39 @@ def build_parser() -> argparse.ArgumentParser:
     )
     render.add_argument(
         "--overwrite", action="store_true", help="replace existing files, inputs included"
+    )
+    render.add_argument(
+        "--lossy",
+        action="store_true",
+        help=(
+            "allow a lossy output format (.jpg): JPEG compression blurs the pixel-scale "
+            "texture; without it a .jpg output is refused, and a directory batch writes "
+            "JPEG inputs as PNG"
+        ),
+    )
+
+    reproduce = commands.add_parser(
+        "reproduce",
+        help="render an output again from its provenance record and compare bit for bit",
+        description=(
+            "Read the provenance record an output of 'render' carries (TIFF description or "
+            "OME annotation, PNG text chunk, zarr attributes), check that the input is the "
+            "file that was rendered (SHA-256), render it again with the recorded call and "
+            "compare the result with the output bit for bit. Exit code 0 if identical, 1 if "
+            "not."
+        ),
+    )
+    reproduce.set_defaults(command="reproduce")
+    reproduce.add_argument(
+        "output", metavar="OUTPUT", help="a file or .zarr store written by render"
+    )
+    reproduce.add_argument(
+        "--input",
+        metavar="INPUT",
+        help=(
+            "the input file (default: the recorded name, relative to the current directory, "
+            "then to OUTPUT's directory)"
+        ),
     )
 
     demo = commands.add_parser(
@@ -107,22 +142,18 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
     the table's one-line message.
     """
     from ..core.colour import COLOUR_MODES
-    from ..core.parameters import PARAMETERS, SWEEPABLE, format_value
+    from ..core.parameters import SWEEPABLE
     from ..core.presets import DEFAULT_PRESET, PRESETS
 
     render.add_argument(
         "--preset", choices=sorted(PRESETS), help=f"parameter set (default {DEFAULT_PRESET})"
     )
-    defaults = dict(PRESETS[DEFAULT_PRESET], seed=0)
     for name, parameter in SWEEPABLE.items():
-        default = f"default {format_value(defaults[name])}"
-        if name in PARAMETERS:
-            default += f" with the {DEFAULT_PRESET} preset"
         render.add_argument(
             _flag(name),
             dest=name,
             metavar=_metavar(parameter),
-            help=f"{parameter.tooltip} ({default})".replace("%", "%%"),
+            help=parameter_help(name).replace("%", "%%"),
         )
     render.add_argument(
         "--tone-limits",
@@ -136,10 +167,12 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
     )
     render.add_argument(
         "--channel-axis",
-        type=int,
-        metavar="A",
+        type=_channel_axis,
+        metavar="A|none",
         help=(
-            "axis of colour channels (default: -1 for RGB(A) PNG/JPEG/BMP files, none for TIFF)"
+            "axis of colour channels, or none (every axis but the last two holds planes); "
+            "default: what the file says (TIFF photometric RGB, the colour type of "
+            "PNG/JPEG/BMP files; none for OME channels and files without colour metadata)"
         ),
     )
     render.add_argument(
@@ -178,6 +211,36 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
             "(len(values), ...), as TIFF or zarr"
         ),
     )
+
+
+def parameter_help(name: str) -> str:
+    """A parameter's help: the table's doc line, its default under the default preset, and
+    the paper's value (the seed has no paper value)."""
+    from ..core.parameters import PARAMETERS, SWEEPABLE, format_value
+    from ..core.presets import DEFAULT_PRESET, PRESETS
+
+    parameter = SWEEPABLE[name]
+    where = parameter.equation
+    if parameter.symbol:
+        where = f"{parameter.symbol} of {where}"
+    if name not in PARAMETERS:  # the seed
+        return f"{where}: {parameter.doc} (default 0)"
+    default = format_value(PRESETS[DEFAULT_PRESET][name])
+    paper = format_value(parameter.paper)
+    return (
+        f"{where}: {parameter.doc} "
+        f"(default {default} with the {DEFAULT_PRESET} preset; paper {paper})"
+    )
+
+
+def _channel_axis(text: str) -> int | str:
+    """``--channel-axis``: an integer, or ``none`` (no colour axis, whatever the file says)."""
+    if text.strip().lower() == "none":
+        return "none"
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer or none, got {text!r}") from None
 
 
 def _flag(name: str) -> str:
