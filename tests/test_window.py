@@ -127,6 +127,7 @@ def test_the_cli_prints_the_v_it_chose_and_renders_with_it(tmp_path, capsys):
     assert f"variance threshold auto: {window.summary()}" in capsys.readouterr().err
     expected = labyrinth(image, variance_threshold=window.best)
     np.testing.assert_array_equal(read_image(target), expected)
+    assert main(["reproduce", str(target)]) == 0  # the record holds the chosen V
     assert main(["render", str(source), "-o", str(tmp_path / "set.tif"), "--set",
                  "variance_threshold=auto"]) == 0  # fmt: skip
     np.testing.assert_array_equal(read_image(tmp_path / "set.tif"), expected)
