@@ -188,7 +188,7 @@ class Parameter:
     @property
     def expected(self) -> str:
         """What a text value must be, in words."""
-        text = {
+        return {
             "float": "a number",
             "int": "a whole number",
             "seed": "a whole number",
@@ -196,7 +196,6 @@ class Parameter:
             "tone_ranges": "a count of ranges or comma-separated limits",
             "tones": "pairs of tones",
         }.get(self.kind) or " or ".join(self.choices)
-        return f"{text} or {AUTO}" if self.automatic else text
 
 
 def _entry(**spec: Any) -> Any:
