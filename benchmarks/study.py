@@ -277,8 +277,10 @@ def auto_summary(test_images, size: int) -> str:
         "no edge.",
         "",
     ]
-    header = "| image | variant | EE | cover | dark RMS | auto V | EE at auto V | cover at auto V |"
-    lines += [header, "|---|---|---|---|---|---|---|---|"]
+    lines += [
+        "| image | variant | EE | cover | dark RMS | auto V | EE at auto V | cover at auto V |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     fixed = dark_rows(test_images)
     for row in fixed:
         image = test_images[row["image"]]

@@ -162,7 +162,8 @@ class WindowPlot(QWidget):
         frame = QRectF(8, 6, self.width() - 16, self.height() - 30)
         if window.found:
             left, right = self.x_of(window.low, frame), self.x_of(window.high, frame)
-            painter.fillRect(QRectF(left - 2, frame.top(), right - left + 4, frame.height()), _WINDOW)
+            band = QRectF(left - 2, frame.top(), right - left + 4, frame.height())
+            painter.fillRect(band, _WINDOW)
         painter.setPen(QPen(text, 1))
         painter.drawRect(frame)
         finite = [v for v in window.edge_enhancement if math.isfinite(v)]

@@ -34,8 +34,8 @@ from .._warmup import start_in_background
 from ..core.presets import DEFAULT_PRESET
 from ..plan import MODES, SWEEP_PARAMETERS, Choices, RenderPlan, default_sweep_text, make_plan
 from ..run import Failure, Outcome
-from .compare import CompareView
 from .auto_window import AutoWindow
+from .compare import CompareView
 from .form import ParameterForm
 from .inputs import InputSection
 from .lifecycle import ClosesWithItsDock
