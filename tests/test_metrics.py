@@ -192,6 +192,18 @@ def test_a_comparison_computes_the_originals_maps_once(cases, monkeypatch):
         comparison.describe(np.zeros((9, 8)))
 
 
+def test_a_comparisons_edge_enhancement_is_the_one_describe_gives(cases, monkeypatch):
+    tensors = _count_calls(monkeypatch, "orientation_band")
+    comparison = metrics.Comparison(cases["original"], workers=1)
+    for rendered in (cases["labyrinth"], cases["noise"], cases["labyrinth"]):
+        value = comparison.edge_enhancement(rendered)
+        assert value == metrics.edge_enhancement(cases["original"], rendered)
+    assert tensors == []  # none of the structure tensors of the other metrics
+    assert value == comparison.describe(cases["labyrinth"])["edge_enhancement"]
+    with pytest.raises(ValueError, match="differ in shape"):
+        comparison.edge_enhancement(np.zeros((9, 8)))
+
+
 def test_a_comparison_keeps_its_own_copy_of_the_original(cases):
     original = cases["original"].copy()
     comparison = metrics.Comparison(original)
