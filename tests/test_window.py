@@ -5,17 +5,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from napari_labyrinth import find_window, labyrinth, labyrinth_stack, metrics, samples
+from napari_labyrinth import find_window, labyrinth, labyrinth_stack, metrics, samples, window
 from napari_labyrinth.cli import main
-from napari_labyrinth.core.parameters import AUTO, PARAMETERS, without_auto
+from napari_labyrinth.core.parameters import AUTO, FLOAT_DECIMALS, PARAMETERS, without_auto
 from napari_labyrinth.core.presets import resolve_parameters
 from napari_labyrinth.core.tone_scale import resolve_tone_scale
 from napari_labyrinth.io import read_image, write_image
 from napari_labyrinth.window import window_of
 
+#: A coarse grid of V (steps of 2 over the default grid's range): the tests that
+#: render whole images at every V use it to stay quick.
+GRID = (0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32)
+
 
 def small_images(size=192):
-    """Images like the study's, small: a photograph, a texture, dark, 16-bit, bright."""
+    """Images like the study's, small: a photograph, a texture, dark, 16-bit."""
     from skimage import data
 
     return {
@@ -24,6 +28,18 @@ def small_images(size=192):
         "dark-field": samples.smectic_batonnets((size, size)),
         "fluorescence-16bit": samples.fluorescence_stack((size, size), planes=1)[0],
     }
+
+
+@pytest.fixture(scope="module")
+def images():
+    return small_images()
+
+
+@pytest.fixture(scope="module")
+def camera_window():
+    """The default window of a small photograph (default grid, default probe)."""
+    image = small_images(96)["camera"]
+    return image, find_window(image)
 
 
 def full_window(image, thresholds):
@@ -55,10 +71,10 @@ def test_window_of_a_hand_made_curve():
     )
 
 
-def test_find_window_is_deterministic_for_a_seed():
-    image = small_images()["dark-field"]
-    first = find_window(image, seed=3, crops=3, crop_size=64)
-    assert find_window(image, seed=3, crops=3, crop_size=64, workers=1) == first
+def test_find_window_is_deterministic_for_a_seed(images):
+    image = images["dark-field"]
+    first = find_window(image, seed=3, crops=3, crop_size=64, thresholds=GRID)
+    assert find_window(image, seed=3, crops=3, crop_size=64, thresholds=GRID, workers=1) == first
     assert first.low <= first.best <= first.high
     assert first.best in first.thresholds
     assert len(first.crops) == 3 and first.crop_size == 64
@@ -66,19 +82,58 @@ def test_find_window_is_deterministic_for_a_seed():
 
 
 @pytest.mark.parametrize("name", list(small_images(32)))
-def test_the_chosen_v_lies_inside_the_window_of_the_whole_image(name):
-    image = small_images()[name]
-    window = find_window(image, crops=4, crop_size=64)  # a third of the image
+def test_the_chosen_v_lies_inside_the_window_of_the_whole_image(images, name):
+    image = images[name]
+    window = find_window(image, crops=4, crop_size=64, thresholds=GRID)  # 4 of 9 cells
     low, _, high, found = full_window(image, window.thresholds)
     assert window.found and found
     assert low <= window.best <= high, (window.summary(), low, high)
 
 
+def test_every_v_probed_is_a_v_the_form_shows(camera_window):
+    # the widget's field holds FLOAT_DECIMALS decimals: a V with more would run rounded
+    _, found = camera_window
+    assert all(v == round(v, FLOAT_DECIMALS) for v in found.thresholds), found.thresholds
+    assert found.best == round(found.best, FLOAT_DECIMALS)
+
+
+def test_a_window_at_an_end_of_the_v_probed_says_so(images):
+    image = images["schlieren"]  # its window: 0.04-0.08 on GRID
+    below = find_window(image, crops=3, crop_size=64, thresholds=GRID[:3], widen=0)
+    assert below.best == GRID[2] and below.high == GRID[2]
+    assert below.high_open and not below.low_open
+    assert "highest V probed" in below.summary()
+    above = find_window(image, crops=3, crop_size=64, thresholds=GRID[-2:], widen=0)
+    assert above.low == GRID[-2] and above.low_open and not above.high_open
+    assert "lowest V probed" in above.summary()
+    inside = find_window(image, crops=3, crop_size=64, thresholds=GRID)
+    assert not (inside.low_open or inside.high_open) and "probed" not in inside.summary()
+
+
+def test_a_best_v_at_the_top_widens_the_grid_upwards(images):
+    image = images["schlieren"]
+    narrow = find_window(image, crops=3, crop_size=64, thresholds=GRID[:3], widen=0)
+    widened = find_window(image, crops=3, crop_size=64, thresholds=GRID[:3], widen=3)
+    # the last step (a factor 2) continued, three times; the V probed before are unchanged
+    assert widened.thresholds == GRID[:6]
+    assert widened.edge_enhancement[:3] == narrow.edge_enhancement
+    assert widened.best > GRID[2] and not widened.high_open
+    # a best V at the bottom is not widened: below the window the curve is flat
+    assert find_window(image, crops=3, crop_size=64, thresholds=GRID[-2:]).thresholds == GRID[-2:]
+
+
+def test_widening_continues_the_last_step_rounded():
+    assert window._above([0.01, 0.02], 3) == [0.04, 0.08, 0.16]
+    assert window._above([0.04, 0.0566], 2) == [0.0801, 0.1133]
+    assert window._above([0.1], 1) == [round(0.1 * 2**0.5, FLOAT_DECIMALS)]
+    assert window._above([0.0, 0.0], 2) == [] and window._above([0.5], 0) == []
+
+
 def test_a_stack_gets_one_v_from_a_sample_of_its_planes():
     stack = samples.fluorescence_stack((96, 96), planes=6)
-    window = find_window(stack, crops=4, crop_size=48, max_planes=3)
-    assert {plane for plane, _, _ in window.crops} <= {0, 1, 2}
-    assert window.found
+    found = find_window(stack, crops=4, crop_size=48, max_planes=3, thresholds=GRID)
+    assert {plane for plane, _, _ in found.crops} <= {0, 1, 2}
+    assert found.found
 
 
 def test_find_window_names_bad_arguments():
@@ -87,17 +142,18 @@ def test_find_window_names_bad_arguments():
         find_window(image, variance_threshold=0.1)
     with pytest.raises(ValueError, match="crops"):
         find_window(image, crops=0)
+    with pytest.raises(ValueError, match="widen"):
+        find_window(image, widen=-1)
     with pytest.raises(ValueError, match="thresholds"):
         find_window(image, thresholds=[0.2, 0.1])
     with pytest.raises(ValueError, match="passes"):
         find_window(image, passes=-1)
 
 
-def test_auto_in_the_api_renders_with_the_chosen_v():
-    image = small_images(96)["camera"]
-    chosen = find_window(image).best
+def test_auto_in_the_api_renders_with_the_chosen_v(camera_window):
+    image, found = camera_window
     np.testing.assert_array_equal(
-        labyrinth(image, variance_threshold=AUTO), labyrinth(image, variance_threshold=chosen)
+        labyrinth(image, variance_threshold=AUTO), labyrinth(image, variance_threshold=found.best)
     )
     np.testing.assert_array_equal(
         labyrinth_stack(image, passes=2, variance_threshold=AUTO),
@@ -119,13 +175,13 @@ def test_auto_is_a_value_of_the_table_not_of_a_parameter_set():
 
 
 def test_the_cli_prints_the_v_it_chose_and_renders_with_it(tmp_path, capsys):
-    image = small_images(96)["fluorescence-16bit"]
+    image = small_images(64)["fluorescence-16bit"]
     source, target = tmp_path / "cells.tif", tmp_path / "out.tif"
     write_image(source, image)
     assert main(["render", str(source), "-o", str(target), "--variance-threshold", "auto"]) == 0
-    window = find_window(image)
-    assert f"variance threshold auto: {window.summary()}" in capsys.readouterr().err
-    expected = labyrinth(image, variance_threshold=window.best)
+    found = find_window(image)
+    assert f"variance threshold auto: {found.summary()}" in capsys.readouterr().err
+    expected = labyrinth(image, variance_threshold=found.best)
     np.testing.assert_array_equal(read_image(target), expected)
     assert main(["reproduce", str(target)]) == 0  # the record holds the chosen V
     assert main(["render", str(source), "-o", str(tmp_path / "set.tif"), "--set",

@@ -31,12 +31,20 @@ import numpy as np
 from . import metrics
 from ._engine import run_pass
 from .api import _prepare
-from .core.parameters import SEED, is_auto
+from .core.parameters import FLOAT_DECIMALS, SEED
 from .core.planes import normalise_channel_axis
 from .core.presets import DEFAULT_PRESET, resolve_parameters
 from .lazy import is_lazy
 
-__all__ = ["CROPS", "CROP_SIZE", "THRESHOLD_FACTORS", "WINDOW_FRACTION", "Window", "find_window"]
+__all__ = [
+    "CROPS",
+    "CROP_SIZE",
+    "THRESHOLD_FACTORS",
+    "WIDEN_STEPS",
+    "WINDOW_FRACTION",
+    "Window",
+    "find_window",
+]
 
 #: The window holds every V whose edge enhancement is at least this fraction of
 #: the best (the study's definition, ``benchmarks/study.py``).
@@ -45,8 +53,17 @@ WINDOW_FRACTION = 0.9
 #: V probed, as factors of the preset's V: 1/16 to 8 times it in steps of
 #: sqrt(2) (0.0025 to 0.32 around the labyrinth preset's 0.04: bright images
 #: want a low V, dark ones a high V). Factors keep the grid on the scale of
-#: either variance ratio of Eq. 4.
+#: either variance ratio of Eq. 4. The V probed are rounded to ``FLOAT_DECIMALS``
+#: (the parameter table's precision of a typed V), so that the V chosen is
+#: the V a form shows and runs.
 THRESHOLD_FACTORS = tuple(float(f) for f in np.round(2.0 ** (np.arange(-8, 7) / 2.0), 4))
+
+#: V probed above the grid, at most, when the best V is its highest (the grid's
+#: step continued). Only upwards: as V falls to 0 every pixel with any variance
+#: passes Eq. 4's test, the rendering tends to a limit and the curve flattens
+#: (the study's curves are flat within 1 % below the window), so no better V
+#: lies below a grid; above it the smoothing of Eq. 2 takes over at some V.
+WIDEN_STEPS = 4
 
 #: Crops of the probe and their side in pixels.
 CROPS = 6
@@ -83,6 +100,11 @@ class Window:
         being the flat index of a rendered plane (or luminance position).
     crop_size : int
         Side of the crops (smaller when the image is).
+    low_open, high_open : bool
+        Whether the window reaches the lowest (highest) V probed: the edge
+        enhancement was still within the window there, so the window may
+        extend beyond it (and, when ``best`` is that V, a better V may lie
+        beyond it).
     """
 
     low: float
@@ -94,16 +116,24 @@ class Window:
     changed: tuple[float, ...]
     crops: tuple[tuple[int, int, int], ...]
     crop_size: int
+    low_open: bool = False
+    high_open: bool = False
 
     def contains(self, value: float) -> bool:
         """Whether ``value`` lies in ``[low, high]``."""
         return self.found and self.low <= value <= self.high
 
     def summary(self) -> str:
-        """One line: ``V = 0.04 (window 0.03-0.06)``."""
+        """One line: ``V = 0.04 (window 0.03-0.06)``, saying when the window is open."""
         if not self.found:
             return f"V = {self.best:.4g} (no V draws the labyrinth on the edges)"
-        return f"V = {self.best:.4g} (window {self.low:.4g}-{self.high:.4g})"
+        ends = [
+            end
+            for end, is_open in (("lowest", self.low_open), ("highest", self.high_open))
+            if is_open
+        ]
+        note = f"; it reaches the {' and '.join(ends)} V probed" if ends else ""
+        return f"V = {self.best:.4g} (window {self.low:.4g}-{self.high:.4g}{note})"
 
 
 def find_window(
@@ -115,6 +145,7 @@ def find_window(
     colour: str | None = None,
     tone_limits: tuple[float, float] | None = None,
     thresholds=None,
+    widen: int = WIDEN_STEPS,
     crops: int = CROPS,
     crop_size: int = CROP_SIZE,
     max_planes: int = MAX_PLANES,
@@ -145,7 +176,12 @@ def find_window(
         As for :func:`napari_labyrinth.labyrinth`: the probe is taken on the
         tones the rendering would see.
     thresholds : sequence of float, optional
-        The V to probe. Default: the preset's V times ``THRESHOLD_FACTORS``.
+        The V to probe, increasing. Default: the preset's V times
+        ``THRESHOLD_FACTORS``, rounded to ``FLOAT_DECIMALS``.
+    widen : int, optional
+        When the best V is the highest of ``thresholds``, up to this many
+        more V are probed above it, the grid's last step continued (rounded
+        to ``FLOAT_DECIMALS``); 0 probes ``thresholds`` only.
     crops : int, optional
         Crops of the probe (>= 1).
     crop_size : int, optional
@@ -161,7 +197,8 @@ def find_window(
     Returns
     -------
     Window
-        ``low``, ``best``, ``high`` and the measured curve.
+        ``low``, ``best``, ``high``, the measured curve, and whether the
+        window reaches an end of the V probed (``low_open``, ``high_open``).
 
     Raises
     ------
@@ -177,6 +214,8 @@ def find_window(
     flat or dark background are each represented as in the image. Each crop
     is rendered on its own, at full resolution, with the tone scale of the
     whole image; the edge enhancement is measured on the crops side by side.
+    Only the crops and the ranking's subsampled cells are put on the tone
+    scale; the V are rendered on ``workers`` threads, one V per task.
 
     Examples
     --------
@@ -192,38 +231,29 @@ def find_window(
     parameters.pop("variance_threshold", None)
     base = resolve_parameters(preset, **parameters)
     seed = SEED.validate(seed)
+    widen = _positive_int("widen", widen, 0)
     crops = _positive_int("crops", crops, 1)
     crop_size = _positive_int("crop_size", crop_size, 16)
     max_planes = _positive_int("max_planes", max_planes, 1)
     workers = (os.cpu_count() or 1) if workers is None else _positive_int("workers", workers, 1)
     values = _thresholds(thresholds, base.variance_threshold)
 
-    planes = _tone_planes(image, channel_axis, colour, tone_limits, max_planes)
+    planes, scale = _sampled_planes(image, channel_axis, colour, tone_limits, max_planes)
     rng = np.random.default_rng(seed)
-    where, size = _choose_crops(planes, crops, crop_size, rng)
+    where, size = _choose_crops(planes, scale, crops, crop_size, rng)
     originals = [
-        np.ascontiguousarray(planes[plane][top : top + size[0], left : left + size[1]])
+        scale(planes[plane][top : top + size[0], left : left + size[1]])
         for plane, top, left in where
     ]
-    mosaic = np.concatenate(originals, axis=0)
-    comparison = _EdgeComparison(mosaic, workers)
-
-    def render(index, parameters):
-        work = originals[index].copy()
-        for pass_index in range(parameters.passes):
-            run_pass(work, parameters, seed=seed, plane_index=index, pass_index=pass_index)
-        return work
-
-    curve, changed = [], []
-    with ThreadPoolExecutor(min(workers, len(originals))) as pool:
-        for value in values:
-            parameters_v = dataclasses.replace(base, variance_threshold=value)
-            rendered = np.concatenate(
-                list(pool.map(render, range(len(originals)), [parameters_v] * len(originals))),
-                axis=0,
-            )
-            curve.append(comparison.edge_enhancement(rendered))
-            changed.append(float(np.mean(rendered != mosaic)))
+    probe = _Probe(originals, base, seed)
+    with ThreadPoolExecutor(workers) as pool:
+        measured = dict(zip(values, pool.map(probe.measure, values)))
+        low, best, high, found = window_of(values, [measured[v][0] for v in values], default=0)
+        if found and widen and best == values[-1]:
+            more = _above(values, widen)
+            measured.update(zip(more, pool.map(probe.measure, more)))
+            values = sorted(measured)
+    curve = [measured[v][0] for v in values]
     low, best, high, found = window_of(values, curve, default=base.variance_threshold)
     return Window(
         low=low,
@@ -232,9 +262,11 @@ def find_window(
         found=found,
         thresholds=tuple(values),
         edge_enhancement=tuple(curve),
-        changed=tuple(changed),
+        changed=tuple(measured[v][1] for v in values),
         crops=tuple(where),
         crop_size=int(min(size)),
+        low_open=found and low == values[0],
+        high_open=found and high == values[-1],
     )
 
 
@@ -283,7 +315,7 @@ def _positive_int(name: str, value: Any, low: int) -> int:
 
 def _thresholds(thresholds: Any, centre: float) -> list[float]:
     if thresholds is None:
-        return [round(centre * factor, 6) for factor in THRESHOLD_FACTORS]
+        return sorted({round(centre * factor, FLOAT_DECIMALS) for factor in THRESHOLD_FACTORS})
     if isinstance(thresholds, (str, bytes)) or not hasattr(thresholds, "__len__"):
         raise TypeError(f"thresholds must be a sequence of numbers, got {thresholds!r}")
     values = []
@@ -300,21 +332,33 @@ def _thresholds(thresholds: Any, centre: float) -> list[float]:
     return values
 
 
-def _tone_planes(image, channel_axis, colour, tone_limits, max_planes) -> list[np.ndarray]:
-    """Up to ``max_planes`` evenly spaced planes of the image, as float32 tones."""
+def _above(values: list[float], steps: int) -> list[float]:
+    """Up to ``steps`` V above the top of ``values``, its last step continued (a ratio;
+    sqrt(2) from a single V), rounded to ``FLOAT_DECIMALS``; those that rounding leaves
+    on the top are dropped (a top of 0 has nothing above it on a ratio scale)."""
+    top = values[-1]
+    ratio = top / values[-2] if len(values) > 1 and values[-2] > 0 else math.sqrt(2.0)
+    above = {round(top * ratio**k, FLOAT_DECIMALS) for k in range(1, steps + 1)}
+    return sorted(v for v in above if v > top)
+
+
+def _sampled_planes(image, channel_axis, colour, tone_limits, max_planes):
+    """Up to ``max_planes`` evenly spaced planes of the image, and the map of their values
+    to C-contiguous float32 tones (the whole image's tone scale).
+
+    The planes are views: only what the probe reads of them is put on the tone scale.
+    """
     if is_lazy(image):
         image = _sampled_lazy(image, channel_axis, max_planes)
         channel_axis = None if channel_axis is None else -1
     array, layout, scale, grey = _prepare(image, channel_axis, tone_limits, colour)
     if grey is not None:
         tones = grey.tones.reshape((-1,) + layout.plane_shape)
-        return [np.ascontiguousarray(tones[k]) for k in _evenly(len(tones), max_planes)]
+        return [tones[k] for k in _evenly(len(tones), max_planes)], np.ascontiguousarray
     indices = list(layout.rendered_indices())
     source = layout.to_planes(array)
-    return [
-        np.ascontiguousarray(scale.to_tones(source[indices[k]]))
-        for k in _evenly(len(indices), max_planes)
-    ]
+    planes = [source[indices[k]] for k in _evenly(len(indices), max_planes)]
+    return planes, lambda values: np.ascontiguousarray(scale.to_tones(values))
 
 
 def _sampled_lazy(image, channel_axis, max_planes) -> np.ndarray:
@@ -341,7 +385,7 @@ def _evenly(count: int, most: int) -> list[int]:
     return sorted({int(round(i)) for i in np.linspace(0, count - 1, most)})
 
 
-def _choose_crops(planes, crops, crop_size, rng):
+def _choose_crops(planes, to_tones, crops, crop_size, rng):
     """``(plane, top, left)`` of the probe's crops and their shape (see find_window's Notes)."""
     height, width = planes[0].shape
     size = (min(crop_size, height), min(crop_size, width))
@@ -350,7 +394,7 @@ def _choose_crops(planes, crops, crop_size, rng):
         for top in range(0, height - size[0] + 1, size[0]):
             for left in range(0, width - size[1] + 1, size[1]):
                 cell = plane[top : top + size[0] : _RANK_STEP, left : left + size[1] : _RANK_STEP]
-                candidates.append((_contrast(cell), p, top, left))
+                candidates.append((_contrast(to_tones(cell)), p, top, left))
     candidates.sort(key=lambda c: (c[0], c[1], c[2], c[3]))
     count = min(crops, len(candidates))
     bounds = np.linspace(0, len(candidates), count + 1).astype(int)
@@ -369,12 +413,37 @@ def _contrast(cell: np.ndarray) -> float:
     )
 
 
-class _EdgeComparison:
-    """Edge enhancement of renderings of one original, its maps kept between calls."""
+class _Probe:
+    """The crops rendered at one V, side by side, and measured against the originals.
 
-    def __init__(self, original: np.ndarray, workers: int):
-        self.original = original
-        self._comparison = metrics.Comparison(original, workers=workers)
+    ``measure`` is called from several threads at once (one V each): the
+    kernel releases the GIL and the comparison keeps the originals' maps.
+    """
 
-    def edge_enhancement(self, rendered: np.ndarray) -> float:
-        return dict(self._comparison.describe_steps(rendered))["edge_enhancement"]
+    def __init__(self, originals: list[np.ndarray], parameters, seed: int):
+        self.originals = originals
+        self.nonfinite = [not np.isfinite(original).all() for original in originals]
+        self.mosaic = np.concatenate(originals, axis=0)
+        self.parameters = parameters
+        self.seed = seed
+        # one thread per V: the comparison's own bands would only add threads
+        self.comparison = metrics.Comparison(self.mosaic, workers=1)
+
+    def measure(self, value: float) -> tuple[float, float]:
+        """Edge enhancement of the probe rendered with V = ``value``, and the fraction changed."""
+        parameters = dataclasses.replace(self.parameters, variance_threshold=value)
+        rendered = []
+        for index, original in enumerate(self.originals):
+            work = original.copy()
+            for pass_index in range(parameters.passes):
+                run_pass(
+                    work,
+                    parameters,
+                    seed=self.seed,
+                    plane_index=index,
+                    pass_index=pass_index,
+                    has_nonfinite=self.nonfinite[index],
+                )
+            rendered.append(work)
+        mosaic = np.concatenate(rendered, axis=0)
+        return self.comparison.edge_enhancement(mosaic), float(np.mean(mosaic != self.mosaic))

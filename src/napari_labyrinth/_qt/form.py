@@ -15,7 +15,7 @@ from typing import Any
 
 from magicgui.widgets import CheckBox, ComboBox, Container, FloatSpinBox, Label, SpinBox
 
-from ..core.parameters import PARAMETERS, SEED, Parameter
+from ..core.parameters import FLOAT_DECIMALS, PARAMETERS, SEED, Parameter
 from ..core.presets import PRESETS
 from ..plan import edited_text, overrides, preset_field_values
 
@@ -120,7 +120,7 @@ def field(parameter: Parameter):
         widget = FloatSpinBox(
             label=parameter.label, min=parameter.low, max=high, step=0.01, tooltip=tooltip
         )
-        widget.native.setDecimals(4)
+        widget.native.setDecimals(FLOAT_DECIMALS)
         return widget
     # int, seed, and tone_ranges as a count of equal ranges
     high = _QT_INT_MAX if parameter.high is None else min(parameter.high, _QT_INT_MAX)

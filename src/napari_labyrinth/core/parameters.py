@@ -27,6 +27,7 @@ from .codes import DIAGNOSTIC_FIELDS, OPTION_CODES
 __all__ = [
     "AUTO",
     "DIAGNOSTIC_FIELDS",
+    "FLOAT_DECIMALS",
     "PARAMETERS",
     "PARAMETER_NAMES",
     "SEED",
@@ -40,6 +41,11 @@ __all__ = [
 #: Default lower limit L_inf^1 of the first tone range ("a low value different
 #: from zero", Sec. 2); the last range ends at 255.
 LOWEST_TONE = 10.0
+
+#: Decimals a real parameter is typed and shown with (the widget's fields). A value
+#: chosen from the image is rounded to them (``find_window``'s grid of V), so that
+#: the value a form shows is the value run and recorded.
+FLOAT_DECIMALS = 4
 
 #: The value of a parameter with ``automatic=True`` that asks for it to be
 #: chosen from the image (``napari_labyrinth.find_window`` for V).
