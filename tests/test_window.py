@@ -187,3 +187,25 @@ def test_the_cli_prints_the_v_it_chose_and_renders_with_it(tmp_path, capsys):
     assert main(["render", str(source), "-o", str(tmp_path / "set.tif"), "--set",
                  "variance_threshold=auto"]) == 0  # fmt: skip
     np.testing.assert_array_equal(read_image(tmp_path / "set.tif"), expected)
+
+
+def test_the_cli_chooses_v_once_for_a_lazy_input(tmp_path, capsys, monkeypatch):
+    image = small_images(64)["fluorescence-16bit"]
+    zarr = pytest.importorskip("zarr")
+    source, target = tmp_path / "cells.zarr", tmp_path / "out.tif"
+    zarr.create_array(str(source), data=image)  # a zarr store is read lazily
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(kwargs.get("tone_limits"))
+        return find_window(*args, **kwargs)
+
+    monkeypatch.setattr(window, "find_window", counted)
+    assert main(["render", str(source), "-o", str(target), "--variance-threshold", "auto"]) == 0
+    limits = resolve_tone_scale(image, None)
+    assert calls == [(limits.low, limits.high)]  # once, on the limits of the whole data
+    chosen = find_window(image, tone_limits=calls[0]).best
+    assert f"variance threshold auto: V = {chosen:.4g}" in capsys.readouterr().err
+    np.testing.assert_array_equal(
+        read_image(target), labyrinth(image, variance_threshold=chosen, tone_limits=calls[0])
+    )

@@ -311,6 +311,7 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     """
     from .. import api
     from ..core.colour import luminance_for_limits, resolve_colour
+    from ..core.parameters import without_auto
     from ..core.planes import normalise_channel_axis, plane_axes
     from ..io import open_image, read_metadata, release_files, write_array
     from ..lazy import default_tone_limits, is_lazy, lazy_luminance
@@ -335,8 +336,9 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     try:
         if chunked and "tone_limits" not in options and image.dtype.name != "uint8":
             # a lazy rendering is only a graph: building one checks the input (dtype,
-            # shape, channel axis) before a scan of the whole data
-            api.labyrinth_steps(image, mode, **dict(kwargs, tone_limits=(0.0, 1.0)))
+            # shape, channel axis) before a scan of the whole data; V=auto is chosen
+            # once, below, on the tone limits found
+            api.labyrinth_steps(image, mode, **dict(without_auto(kwargs), tone_limits=(0.0, 1.0)))
             _note(
                 f"{job.input}: finding the default tone limits (0.5th and 99.5th "
                 "percentiles) in a pass over the data; --tone-limits skips it"
