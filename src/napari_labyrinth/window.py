@@ -123,17 +123,20 @@ class Window:
         """Whether ``value`` lies in ``[low, high]``."""
         return self.found and self.low <= value <= self.high
 
-    def summary(self) -> str:
-        """One line: ``V = 0.04 (window 0.03-0.06)``, saying when the window is open."""
+    @property
+    def open_note(self) -> str:
+        """``"it reaches the lowest V probed"`` (highest, both) or ``""``: see ``low_open``."""
+        ends = [end for end, is_open in (("lowest", self.low_open), ("highest", self.high_open))
+                if is_open]  # fmt: skip
+        return f"it reaches the {' and '.join(ends)} V probed" if ends else ""
+
+    def summary(self, *, note: bool = True) -> str:
+        """One line: ``V = 0.04 (window 0.03-0.06)``, with ``open_note`` unless ``note`` is
+        False."""
         if not self.found:
             return f"V = {self.best:.4g} (no V draws the labyrinth on the edges)"
-        ends = [
-            end
-            for end, is_open in (("lowest", self.low_open), ("highest", self.high_open))
-            if is_open
-        ]
-        note = f"; it reaches the {' and '.join(ends)} V probed" if ends else ""
-        return f"V = {self.best:.4g} (window {self.low:.4g}-{self.high:.4g}{note})"
+        extra = f"; {self.open_note}" if note and self.open_note else ""
+        return f"V = {self.best:.4g} (window {self.low:.4g}-{self.high:.4g}{extra})"
 
 
 def find_window(

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -58,3 +60,22 @@ def test_closing_the_widget_during_a_search_leaves_it_alone(qtbot, viewer, widge
         widget.close_down()
     assert widget.auto_window.worker is None and widget.auto_window.window is None
     assert widget.fields["variance_threshold"].value == before
+
+
+def test_the_plot_notes_a_window_open_at_an_end(qtbot):
+    from napari_labyrinth._qt.auto_window import WindowPlot
+    from napari_labyrinth.window import Window
+
+    thresholds = (0.01, 0.02, 0.04, 0.08)
+    closed = Window(0.02, 0.04, 0.04, True, thresholds, (0.1, 0.5, 0.6, 0.2), (0,) * 4, (), 64)
+    open_low = dataclasses.replace(closed, low=0.01, low_open=True)
+    plot = WindowPlot()
+    qtbot.addWidget(plot)
+    plot.show_window(closed)
+    height = plot.height()
+    assert closed.open_note == "" and "probed" not in closed.summary()
+    plot.show_window(open_low)
+    assert open_low.open_note == "it reaches the lowest V probed"
+    assert open_low.summary().endswith("; it reaches the lowest V probed)")
+    assert plot.height() > height  # a line for the note under the curve
+    plot.grab()  # paints without error

@@ -29,6 +29,9 @@ FIELD = "variance_threshold"
 _CURVE = "#f0a030"
 _WINDOW = QColor(64, 176, 240, 60)
 
+#: Height of the plot, and of the line of its note on an open window, in pixels.
+_HEIGHT, _LINE = 110, 14
+
 
 class AutoWindow:
     """The button beside the V field, and the plot of the last window found.
@@ -131,17 +134,19 @@ class WindowPlot(QWidget):
     def __init__(self) -> None:
         super().__init__()
         self.window: Window | None = None
-        self.setMinimumHeight(110)
+        self.setFixedHeight(_HEIGHT)
         self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
         self.setToolTip(
             "Edge enhancement of the probe against V (log scale): the shaded band is the "
-            "window (at least 90 % of the best), the line the chosen V."
+            "window (at least 90 % of the best), the line the chosen V. A window that "
+            "reaches the lowest or highest V probed may go on beyond it."
         )
         self.setVisible(False)
 
     def show_window(self, window: Window | None) -> None:
         """Plot ``window``'s curve and show the plot (None hides it)."""
         self.window = window
+        self.setFixedHeight(_HEIGHT + (_LINE if window is not None and window.open_note else 0))
         self.setVisible(window is not None)
         self.update()
 
@@ -159,7 +164,7 @@ class WindowPlot(QWidget):
         painter = QPainter(self)
         painter.setRenderHint(QPainter.RenderHint.Antialiasing)
         text = self.palette().windowText().color()
-        frame = QRectF(8, 6, self.width() - 16, self.height() - 30)
+        frame = QRectF(8, 6, self.width() - 16, _HEIGHT - 30)
         if window.found:
             left, right = self.x_of(window.low, frame), self.x_of(window.high, frame)
             band = QRectF(left - 2, frame.top(), right - left + 4, frame.height())
@@ -190,6 +195,7 @@ class WindowPlot(QWidget):
         painter.setPen(QPen(text, 1, Qt.PenStyle.DashLine))
         painter.drawLine(QPointF(best, frame.top()), QPointF(best, frame.bottom()))
         painter.setPen(QPen(text, 1))
-        caption = window.summary()
-        painter.drawText(QPointF(frame.left(), self.height() - 8), caption)
+        painter.drawText(QPointF(frame.left(), frame.bottom() + 16), window.summary(note=False))
+        if window.open_note:  # the window may go on beyond the V probed
+            painter.drawText(QPointF(frame.left(), frame.bottom() + 30), window.open_note)
         painter.end()
