@@ -7,16 +7,18 @@ noisy 16-bit and bright low-contrast images) at ``--size`` pixels square:
 - the *full sweep*: the whole image rendered with the default preset at every
   V of ``find_window``'s grid, its edge enhancement (on the 0-255 tones) and
   the window read from it as ``find_window`` reads the probe's;
-- ``find_window(image)``: the probe's window and its chosen V, and whether
-  that V lies inside the full sweep's window;
+- ``find_window(image)``: the probe's window and its chosen V, whether that V
+  lies inside the full sweep's window, and whether the probe's window is open
+  (reaches the lowest or highest V probed: it may go on beyond them);
 - the edge enhancement of the whole image at the chosen V and at the best V
   of the full sweep (what choosing on the probe costs).
 
 Then the time of ``find_window`` on one plane of 512² and 2048² (best of
 ``--rounds``, interleaved; the 2048² images are the study's images made at
 that size: the synthetic ones drawn at 2048², the photographs resized), and
-on a 2048² stack of 8 planes. The load average is printed beside the times:
-on a shared machine they are upper bounds.
+on a 2048² uint16 stack of 8 planes: wall time and the process's CPU time
+(both threads), each the best of the rounds. The load average is printed
+beside the times: on a shared machine they are upper bounds.
 
 Run: ``python benchmarks/bench_window.py [--size 512] [--rounds 3]`` (about two
 minutes on two cores).
@@ -64,11 +66,11 @@ def compare(images, *, out=sys.stdout) -> list[dict]:
 
     rows = []
     print(
-        "| image | full-sweep window | full best V | find_window window | chosen V | inside | "
-        "EE at chosen V | EE at full best V |",
+        "| image | full-sweep window | full best V | find_window window | open | chosen V | "
+        "inside | EE at chosen V | EE at full best V |",
         file=out,
     )
-    print("|---|---|---|---|---|---|---|---|", file=out)
+    print("|---|---|---|---|---|---|---|---|---|", file=out)
     for name, image in images.items():
         window = find_window(image)
         curve = full_sweep(image, window.thresholds)
@@ -89,9 +91,11 @@ def compare(images, *, out=sys.stdout) -> list[dict]:
                 thresholds=window.thresholds,
             )
         )
+        ends = [end for end, is_open in (("low", window.low_open), ("high", window.high_open))
+                if is_open]  # fmt: skip
         print(
             f"| {name} | {low:.4g}-{high:.4g} | {best:.4g} | "
-            f"{window.low:.4g}-{window.high:.4g} | {window.best:.4g} | "
+            f"{window.low:.4g}-{window.high:.4g} | {' '.join(ends) or '-'} | {window.best:.4g} | "
             f"{'yes' if inside else 'NO'} | {at_chosen:.3f} | {at_best:.3f} |",
             file=out,
             flush=True,
@@ -99,13 +103,15 @@ def compare(images, *, out=sys.stdout) -> list[dict]:
     return rows
 
 
-def time_it(function, rounds: int) -> float:
-    best = float("inf")
+def time_it(function, rounds: int) -> tuple[float, float]:
+    """Best wall time and best CPU time (seconds) of ``rounds`` calls."""
+    wall = cpu = float("inf")
     for _ in range(rounds):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         function()
-        best = min(best, time.perf_counter() - start)
-    return best
+        wall = min(wall, time.perf_counter() - start)
+        cpu = min(cpu, time.process_time() - start_cpu)
+    return wall, cpu
 
 
 def main(argv=None):
@@ -126,7 +132,7 @@ def main(argv=None):
         print(f"\n## Probe against full sweep, {args.size}² (default preset, 4 passes)\n")
         compare(small if args.size == 512 else images(args.size))
 
-    print("\n## Time of find_window (best of rounds, seconds)\n")
+    print("\n## Time of find_window (best of rounds, seconds: wall / CPU of both threads)\n")
     large = images(2048)
     stack = np.stack([np.roll(large["fluorescence-16bit"], 37 * k, axis=1) for k in range(8)])
     print("| image | 512² | 2048² | load |")
@@ -135,9 +141,13 @@ def main(argv=None):
         t_small = time_it(lambda: find_window(small[name]), args.rounds)
         t_large = time_it(lambda: find_window(large[name]), args.rounds)
         load = os.getloadavg()[0]
-        print(f"| {name} | {t_small:.3f} | {t_large:.3f} | {load:.2f} |", flush=True)
-    t_stack = time_it(lambda: find_window(stack), args.rounds)
-    print(f"| 8-plane 2048² uint16 stack | | {t_stack:.3f} | {os.getloadavg()[0]:.2f} |")
+        print(
+            f"| {name} | {t_small[0]:.3f} / {t_small[1]:.3f} | {t_large[0]:.3f} / "
+            f"{t_large[1]:.3f} | {load:.2f} |",
+            flush=True,
+        )
+    wall, cpu = time_it(lambda: find_window(stack), args.rounds)
+    print(f"| 8-plane 2048² uint16 stack | | {wall:.3f} / {cpu:.3f} | {os.getloadavg()[0]:.2f} |")
     print(f"\nload average after: {os.getloadavg()}")
 
 
