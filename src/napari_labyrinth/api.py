@@ -21,12 +21,13 @@ import numpy as np
 
 from . import _engine
 from ._engine import DIAGNOSTICS_DTYPE, Progress, run_pass
-from .core.colour import TONES, LuminancePlanes, resolve_colour
+from .core.colour import TONES, LuminancePlanes
 from .core.parameters import SEED, WORKERS, LabyrinthParameters
 from .core.planes import (
     PlaneLayout,
     normalise_channel_axis,
     resolve_alpha,
+    resolve_layout_colour,
     validate_plane_offset,
     validate_shape,
     validate_stream_range,
@@ -609,12 +610,7 @@ def _prepare(
     axis = normalise_channel_axis(channel_axis, array.ndim)
     has_alpha = resolve_alpha(alpha, array.shape, axis)
     layout = PlaneLayout(array.shape, axis, alpha=has_alpha)
-    if resolve_colour(colour, array.shape, layout.channel_axis) == "luminance":
-        if not has_alpha and array.shape[axis] == 4:
-            raise ValueError(
-                "alpha=False with 4 channels needs colour='channels' (the luminance mode "
-                "keeps the fourth channel as alpha)"
-            )
+    if resolve_layout_colour(colour, array.shape, axis, alpha) == "luminance":
         grey = LuminancePlanes(layout.to_planes(array), tone_limits)
         return array, layout, grey.scale, grey
     scale = resolve_tone_scale(without_alpha(array, layout.channel_axis, has_alpha), tone_limits)

@@ -31,13 +31,14 @@ from typing import Any
 import numpy as np
 
 from ._engine import render, run_to_end
-from .core.colour import TONES, LuminancePlanes, luminance, luminance_for_limits, resolve_colour
+from .core.colour import TONES, LuminancePlanes, luminance, luminance_for_limits
 from .core.parameters import LabyrinthParameters
 from ._budget import refuse_unaffordable
 from .core.planes import (
     PlaneLayout,
     normalise_channel_axis,
     resolve_alpha,
+    resolve_layout_colour,
     validate_shape,
     validate_stream_range,
     without_alpha,
@@ -133,7 +134,7 @@ def render_lazy(
     refuse_unaffordable("image", layout.plane_shape, dtype, planes=1, what="each plane")
     if dtype != given:
         image = image.astype(dtype)
-    in_luminance = resolve_colour(colour, image.shape, channel_axis) == "luminance"
+    in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
     if tone_limits is None and dtype != np.uint8:
         if in_luminance:
             values = luminance_for_limits(lazy_luminance(image, channel_axis), dtype)

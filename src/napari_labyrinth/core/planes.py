@@ -128,6 +128,34 @@ def plane_axes(ndim: int, channel_axis: int | None, extra: int = 0) -> tuple[int
     return tuple(sorted(extra + axis for axis in axes))
 
 
+def resolve_layout_colour(
+    colour: Any, shape: Sequence[int], channel_axis: int | None, alpha: Any = None
+) -> str:
+    """:func:`core.colour.resolve_colour` for an image whose alpha may not be the 4th channel.
+
+    The luminance mode renders R, G, B and keeps a 4th channel as alpha; an
+    ``alpha`` that differs from that (grey + alpha, RGB without alpha but
+    alpha=True, 4 channels without alpha) renders channels independently by
+    default, and refuses ``colour="luminance"``.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``colour`` or ``alpha``.
+    """
+    has_alpha = resolve_alpha(alpha, shape, channel_axis)
+    channels = None if channel_axis is None else int(shape[channel_axis])
+    if has_alpha == (channels == RGBA_CHANNELS):  # alpha where the luminance mode has it
+        return resolve_colour(colour, shape, channel_axis)
+    if colour != "luminance":  # checks an unknown colour too
+        return resolve_colour("channels" if colour is None else colour, shape, channel_axis)
+    raise ValueError(
+        f"colour='luminance' needs R, G, B (and alpha as a 4th channel); alpha={alpha!r} "
+        f"with {channels} channels leaves {channels - has_alpha} colour channel(s): "
+        "use colour='channels'"
+    )
+
+
 def without_alpha(image: Any, channel_axis: int | None, alpha: bool | None = None) -> Any:
     """``image`` without its alpha channel (a view; the image itself if it has none)."""
     if channel_axis is None:
@@ -172,7 +200,7 @@ def step_count(
     one per channel.
     """
     layout = PlaneLayout(tuple(shape), normalise_channel_axis(channel_axis, len(shape)), alpha=alpha)
-    if resolve_colour(colour, layout.shape, layout.channel_axis) == "luminance":
+    if resolve_layout_colour(colour, layout.shape, layout.channel_axis, alpha) == "luminance":
         layout = layout.luminance_layout()
     total_passes = passes if isinstance(passes, numbers.Integral) else sum(passes)
     return layout.n_rendered * int(total_passes)

@@ -76,7 +76,7 @@ class ToneScale:
     def from_tones(self, tones: np.ndarray, dtype: np.dtype) -> np.ndarray:
         """Values of ``dtype`` for ``tones``: rounded and clipped for integers."""
         values = tones.astype(np.float64) / self._gain + self.low
-        return _representable(values, np.dtype(dtype))
+        return representable(values, np.dtype(dtype))
 
 
 def validate_tone_limits(tone_limits: Any) -> tuple[float, float]:
@@ -153,7 +153,7 @@ def _has_length(value: Any) -> bool:
     return True
 
 
-def _representable(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
+def representable(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
     """float64 ``values`` as ``dtype``: rounded and clipped to its range (integers), or
     clipped to its finite range (floats: tone limits beyond float16's make no inf)."""
     if dtype.kind in "iu":
