@@ -148,9 +148,7 @@ def _declared(path: Path, kind: str) -> tuple[tuple[int, ...], np.dtype] | None:
             with tifffile.TiffFile(path) as tiff:
                 series = tiff.series[0]
                 return tuple(series.shape), np.dtype(series.dtype)
-        from PIL import Image
-
-        with Image.open(path) as image:
+        with _pillow_open(path) as image:
             width, height = image.size
             bands = len(image.getbands())
             dtype = _PIL_DTYPES.get(image.mode.split(";")[0], np.uint8)
@@ -163,6 +161,28 @@ def _declared(path: Path, kind: str) -> tuple[tuple[int, ...], np.dtype] | None:
 
 
 _PIL_DTYPES = {"I": np.int32, "F": np.float32}
+
+
+def _pillow_open(path: Path):
+    """The image at ``path`` opened by Pillow for its header, even past Pillow's own limit.
+
+    ``Image.open`` refuses more than twice ``Image.MAX_IMAGE_PIXELS`` with a
+    message about attacks; the format classes themselves read the header
+    without that check, so that the size can be reported as for any image.
+    """
+    from PIL import BmpImagePlugin, Image, JpegImagePlugin, PngImagePlugin
+
+    try:
+        return Image.open(path)
+    except Image.DecompressionBombError:
+        pass
+    for opener in (PngImagePlugin.PngImageFile, JpegImagePlugin.JpegImageFile,
+                   BmpImagePlugin.BmpImageFile):
+        try:
+            return opener(path)
+        except Exception:  # noqa: BLE001 - not this format
+            continue
+    raise ValueError("no header Pillow can read")
 
 
 def _bytes_text(size: int) -> str:
