@@ -16,6 +16,7 @@ written back with the provenance record of the rendering
 from __future__ import annotations
 
 import argparse
+import asyncio
 import contextlib
 import dataclasses
 import functools
@@ -46,8 +47,8 @@ LOSSLESS_SUFFIX = ".png"
 #: written (a lazy rendering, computed as it is written).
 PROGRESS_LABELS = {"pass": "passes", "plane": "planes written"}
 
-#: Seconds to wait for a dask scheduler given by --scheduler.
-SCHEDULER_TIMEOUT = 10
+#: Seconds to wait for a dask scheduler given by --scheduler (--scheduler-timeout).
+SCHEDULER_TIMEOUT = 10.0
 
 
 @dataclasses.dataclass
@@ -70,12 +71,13 @@ def render_command(args: argparse.Namespace) -> int:
     _check_overwrites(jobs, overwrite=args.overwrite)
     if directory is not None:
         make_directory(directory)
-    with _scheduler(args.scheduler):
+    timeout = getattr(args, "scheduler_timeout", None) or SCHEDULER_TIMEOUT
+    with _scheduler(args.scheduler, timeout):
         return _render_jobs(jobs, args, options)
 
 
 @contextlib.contextmanager
-def _scheduler(address: str | int | None):
+def _scheduler(address: str | int | None, timeout: float = SCHEDULER_TIMEOUT):
     """Make a ``dask.distributed`` client the scheduler of dask for the run (None: local)."""
     if address is None:
         yield None
@@ -100,10 +102,10 @@ def _scheduler(address: str | int | None):
                 scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
             )
             client = Client(cluster)
-        elif os.path.isfile(address):
-            client = Client(scheduler_file=address, timeout=SCHEDULER_TIMEOUT)
         else:
-            client = Client(address, timeout=SCHEDULER_TIMEOUT)
+            client = Client(_answering_scheduler(address, timeout), timeout=timeout)
+    except Failed:
+        raise
     except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address, ...
         if cluster is not None:
             cluster.close()
@@ -117,10 +119,69 @@ def _scheduler(address: str | int | None):
             cluster.close()
 
 
+def _answering_scheduler(address: str, timeout: float) -> str:
+    """The address of a dask scheduler that answers within ``timeout`` seconds.
+
+    ``address`` is an address or a scheduler file. A socket that accepts and
+    never answers, an HTTP server or a closed port fail after ``timeout``
+    seconds, where ``distributed.Client`` alone can wait forever.
+
+    Raises
+    ------
+    Failed
+        One line: what was tried and why it failed.
+    """
+    if os.path.isfile(address):
+        address = _scheduler_file_address(address)
+    _note(f"connecting to the dask scheduler at {address} (timeout {timeout:g} s)")
+    try:
+        reply = asyncio.run(asyncio.wait_for(_identity(address, timeout), timeout))
+    except (TimeoutError, asyncio.TimeoutError):
+        raise Failed(
+            f"--scheduler: no dask scheduler answered at {address} within {timeout:g} s "
+            "(--scheduler-timeout sets the wait)"
+        ) from None
+    except Exception as exc:  # OSError, ValueError for a bad address, a garbled reply
+        raise Failed(f"--scheduler: cannot connect to {address}: {describe(exc, '')}") from None
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        raise Failed(f"--scheduler: {address} answered, but not as a dask scheduler")
+    return address
+
+
+async def _identity(address: str, timeout: float):
+    """The scheduler's answer to an ``identity`` request."""
+    from distributed.comm import connect
+
+    comm = await connect(address, timeout=timeout)
+    try:
+        await comm.write({"op": "identity", "reply": True})
+        return await comm.read()
+    finally:
+        comm.abort()
+
+
+def _scheduler_file_address(path: str) -> str:
+    """The address a dask scheduler file holds (JSON with an ``"address"``)."""
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as file:
+            content = json.load(file)
+    except (OSError, ValueError) as exc:
+        raise Failed(
+            f"--scheduler: {path} is not a dask scheduler file (JSON with an \"address\"): "
+            f"{describe(exc, path)}"
+        ) from None
+    address = content.get("address") if isinstance(content, dict) else None
+    if not isinstance(address, str) or not address:
+        raise Failed(
+            f"--scheduler: {path} is not a dask scheduler file: it has no \"address\""
+        )
+    return address
+
+
 def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, Any]) -> int:
     from tqdm import tqdm
-
-    from ..lazy import ComputeError
 
     show = _isatty(sys.stderr)
     rendered: list[Path] = []
@@ -153,18 +214,9 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
                 if job.error is not None:
                     raise _FileError(job.error)
                 _render_one(job, args, options, progress if show else None)
-            except (
-                _FileError,
-                OSError,
-                ValueError,
-                TypeError,
-                MemoryError,
-                ComputeError,
-            ) as exc:
+            except Exception as exc:  # noqa: BLE001 - one file's failure never stops a batch
                 failed.append(job.input)
-                tqdm.write(
-                    f"{PROG}: error: {job.input}: {describe(exc, job.input)}", file=sys.stderr
-                )
+                tqdm.write(f"{PROG}: error: {job.input}: {_failure(exc, job)}", file=sys.stderr)
             else:
                 rendered.append(job.output)
                 tqdm.write(str(job.output), file=sys.stdout)
@@ -174,6 +226,15 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
         files_bar.close()
     _summary(len(rendered), len(jobs), failed)
     return EXIT_FAILED if failed else EXIT_OK
+
+
+def _failure(exc: Exception, job: _Job) -> str:
+    """One line for a file that failed; errors nobody foresaw also name their type."""
+    from ..lazy import ComputeError
+
+    text = describe(exc, job.input)
+    foreseen = (_FileError, OSError, ValueError, TypeError, MemoryError, ComputeError)
+    return text if isinstance(exc, foreseen) else f"{type(exc).__name__}: {text}"
 
 
 def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
@@ -330,6 +391,8 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     if alpha is not None:
         channel_axis = None
     kwargs = dict(options, channel_axis=channel_axis)
+    if image_format(job.input) in _COLOUR_FORMATS and channel_axis == -1:
+        kwargs["alpha"] = image.shape[-1] in (2, 4)  # grey + alpha, RGBA: alpha never rendered
     mode = "stack" if args.stack else "sweep" if "parameter" in options else "single"
     chunked = is_lazy(image)
     try:
