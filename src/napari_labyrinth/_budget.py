@@ -148,7 +148,7 @@ def _declared(path: Path, kind: str) -> tuple[tuple[int, ...], np.dtype] | None:
             with tifffile.TiffFile(path) as tiff:
                 series = tiff.series[0]
                 return tuple(series.shape), np.dtype(series.dtype)
-        with _pillow_open(path) as image:
+        with pillow_header(path) as image:
             width, height = image.size
             bands = len(image.getbands())
             dtype = _PIL_DTYPES.get(image.mode.split(";")[0], np.uint8)
@@ -163,7 +163,7 @@ def _declared(path: Path, kind: str) -> tuple[tuple[int, ...], np.dtype] | None:
 _PIL_DTYPES = {"I": np.int32, "F": np.float32}
 
 
-def _pillow_open(path: Path):
+def pillow_header(path: Path):
     """The image at ``path`` opened by Pillow for its header, even past Pillow's own limit.
 
     ``Image.open`` refuses more than twice ``Image.MAX_IMAGE_PIXELS`` with a

@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from ._budget import declared_refusal, refusal
+from ._budget import declared_refusal, pillow_header, refusal
 from ._leftovers import remove_stale_temporaries, temporary_name
 
 #: Lower-case file suffix -> format name.
@@ -1080,11 +1080,9 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
 
 
 def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
-    from PIL import Image
-
     from .provenance import KEY
 
-    with Image.open(path) as image:
+    with pillow_header(path) as image:  # past Pillow's size limit: the budget judges size
         mode = image.mode
         if kind == "PNG":
             text = getattr(image, "text", {}).get(KEY)

@@ -387,12 +387,9 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             f"{'x'.join(map(str, planes))} planes of {rows}x{columns} pixels; "
             "--channel-axis -1 reads the last axis as RGB(A)"
         )
-    image, alpha = split_alpha(image, metadata, args.channel_axis)
-    if alpha is not None:
-        channel_axis = None
     kwargs = dict(options, channel_axis=channel_axis)
-    if image_format(job.input) in _COLOUR_FORMATS and channel_axis == -1:
-        kwargs["alpha"] = image.shape[-1] in (2, 4)  # grey + alpha, RGBA: alpha never rendered
+    if metadata.grey_alpha and channel_axis == -1:
+        kwargs["alpha"] = True  # the file says grey + alpha: alpha is kept, never rendered
     mode = "stack" if args.stack else "sweep" if "parameter" in options else "single"
     chunked = is_lazy(image)
     try:
@@ -419,18 +416,13 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             elif progress is not None:
                 progress(event.done, event.total)
         record = provenance_record(job.input, image, mode, kwargs, limits)
-        if alpha is not None:
-            result = with_alpha(result, alpha)
-            record[ALPHA_KEY] = ALPHA_LAST
-            record["input"]["shape"] = list(result.shape[-image.ndim - 1 :])
-            channel_axis = -1
         extra = 0 if mode == "single" else 1
         job.output.parent.mkdir(parents=True, exist_ok=True)
         write_array(
             job.output,
             result,
             overwrite=args.overwrite,
-            plane_axes=plane_axes(image.ndim + (alpha is not None), channel_axis, extra),
+            plane_axes=plane_axes(image.ndim, channel_axis, extra),
             progress=functools.partial(progress, unit="plane") if chunked and progress else None,
             metadata=metadata.for_output("Q" if extra else None, record),
         )
@@ -450,28 +442,6 @@ def _choose_auto_threshold(job: _Job, image, kwargs: dict[str, Any]) -> None:
     window = window_for(image, **options)
     kwargs["variance_threshold"] = window.best
     _note(f"{job.input}: variance threshold auto: {window.summary()}")
-
-
-#: Record key and value of an input whose last channel (grey, alpha) is alpha: the
-#: recorded call renders the grey channel, the alpha channel is put back unchanged.
-ALPHA_KEY, ALPHA_LAST = "alpha", "the input's last channel, kept unchanged"
-
-
-def split_alpha(image, metadata, given):
-    """A grey + alpha image (the file says so) as its grey plane(s) and its alpha, else
-    ``(image, None)``. The API renders alpha only of RGBA images; a grey + alpha PNG
-    would otherwise have its alpha rendered as a plane."""
-    if not metadata.grey_alpha or given is not None or image.ndim < 3 or image.shape[-1] != 2:
-        return image, None
-    return image[..., 0], image[..., 1]
-
-
-def with_alpha(result, alpha):
-    """The rendering with the alpha channel put back last (along every leading axis)."""
-    import numpy as np
-
-    result = np.asarray(result)
-    return np.stack([result, np.broadcast_to(alpha, result.shape)], axis=-1)
 
 
 def input_channel_axis(metadata, given: int | str | None) -> int | None:
@@ -503,6 +473,7 @@ def provenance_record(
         tone_limits=tone_limits,
         channel_axis=kwargs.get("channel_axis"),
         colour=kwargs.get("colour"),
+        alpha=kwargs.get("alpha"),
         sweep=sweep,
     )
     source = input_record(path, image.shape, image.dtype, file_checksum(path))
