@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test fuzz bench-hostile bench bench-scale bench-widget bench-metrics bench-window study gallery screenshot install install-test system-packages clean
+.PHONY: demo test fuzz bench-hostile file-cases bench bench-scale bench-widget bench-metrics bench-window study gallery screenshot install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
@@ -17,6 +17,10 @@ test: $(VENV)/.installed-test system-packages
 FUZZ_EXAMPLES ?= 20000
 fuzz: $(VENV)/.installed-test
 	HOSTILE_EXAMPLES=$(FUZZ_EXAMPLES) HOSTILE_SEED=random $(PY) -m pytest tests/test_hostile_properties.py -q -p no:cacheprovider
+
+# The file cases: colour, axes and pixel sizes detected and kept, provenance, reproduce.
+file-cases: $(VENV)/.installed-test
+	$(PY) benchmarks/file_cases.py
 
 # Hostile cases by class, make fuzz's count and time, peak RSS on a declared-huge file, the
 # time to fail on a scheduler that never answers.
