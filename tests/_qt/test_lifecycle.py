@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 
+import numpy as np
 import pytest
 
 pytest.importorskip("napari")
@@ -11,7 +12,7 @@ pytest.importorskip("pytestqt")
 
 from napari_labyrinth.plan import METADATA_KEY
 
-from .helpers import RUN_TIMEOUT_MS, noise, run
+from .helpers import RUN_TIMEOUT_MS, noise, reproduce, run
 
 
 def _no_rendering_thread():
@@ -78,15 +79,72 @@ def test_a_run_of_the_same_input_and_mode_replaces_the_previous_result(qtbot, vi
     first = viewer.layers["cell · labyrinth"]
     position = viewer.layers.index(first)
     viewer.layers.move(position, 0)  # the user put it elsewhere
+    before = np.array(first.data)
     widget.seed.value = 3
     run(qtbot, widget)
     results = [layer for layer in viewer.layers if layer.name.startswith("cell · labyrinth")]
-    assert len(results) == 1 and results[0] is not first
-    assert viewer.layers.index(results[0]) == 0  # in the place of the one it replaced
-    assert results[0].metadata[METADATA_KEY]["seed"] == 3
+    assert results == [first]  # the same layer, updated in place
+    assert viewer.layers.index(first) == 0  # where the user put it
+    assert first.metadata[METADATA_KEY]["seed"] == 3
+    assert not np.array_equal(first.data, before)
+    np.testing.assert_array_equal(first.data, reproduce(first, viewer.layers["cell"].data))
+    assert viewer.layers.selection.active is first
     widget.replace.value = False
     run(qtbot, widget)
     assert sum(layer.name.startswith("cell · labyrinth") for layer in viewer.layers) == 2
+
+
+def test_a_result_that_cannot_hold_the_new_data_is_replaced_by_a_new_layer(
+    qtbot, viewer, widget
+):
+    """A stack has one more axis than the result of a single run: no update in place."""
+    from napari_labyrinth._qt.worker import add_result_layer
+
+    viewer.add_image(noise((32, 32)), name="cell")
+    widget.mode.value = "stack"
+    widget.fields["passes"].value = 2
+    run(qtbot, widget)
+    stack = viewer.layers["cell · stack"]
+    viewer.layers.move(viewer.layers.index(stack), 0)
+    widget.mode.value = "single"
+    plan = widget.plan()
+    outcome = _rendered_outcome(plan)
+    layer = add_result_layer(viewer, plan, outcome, previous=stack)
+    assert layer is not stack and stack not in viewer.layers
+    assert viewer.layers.index(layer) == 0 and layer.ndim == 2
+
+
+def test_an_update_in_place_takes_the_name_contrast_and_transforms_of_the_new_result(
+    qtbot, viewer, widget
+):
+    from napari_labyrinth._qt.worker import add_result_layer
+
+    source = viewer.add_image(noise((32, 32), dtype=np.uint16) * 10, name="cell")
+    run(qtbot, widget)
+    result = viewer.layers["cell · labyrinth"]
+    source.contrast_limits = (100, 2000)
+    source.scale = (2.0, 3.0)
+    source.name = "renamed"
+    widget.image_layer.value = source
+    plan = widget.plan()
+    layer = add_result_layer(viewer, plan, _rendered_outcome(plan), previous=result)
+    assert layer is result and len(viewer.layers) == 2
+    assert layer.name == "renamed · labyrinth"
+    assert tuple(layer.contrast_limits) == (100, 2000)
+    np.testing.assert_array_equal(layer.scale, (2.0, 3.0))
+    assert layer.metadata[METADATA_KEY]["source_layer"] == "renamed"
+
+
+def _rendered_outcome(plan):
+    """The outcome of ``plan``, rendered here (no worker)."""
+    from napari_labyrinth.run import render
+
+    steps = render(plan)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as stop:
+            return stop.value
 
 
 def test_the_sweep_value_of_the_plane_on_screen_is_shown(qtbot, viewer, widget):
