@@ -111,7 +111,7 @@ def _timed_run(widget) -> dict[str, float]:
       layer added or updated, then drawn (the texture upload, in software under Xvfb).
     """
     worker = widget.run(start=False)
-    total_steps = worker.pbar.total
+    total_steps = widget.progress_bar.maximum()
     gap = GapMeter()
     marks: dict[str, float] = {}
     add_result = widget._add_result

@@ -50,6 +50,11 @@ __all__ = ["LabyrinthWidget"]
 class LabyrinthWidget(ClosesWithItsDock, QWidget):
     #: Every widget alive: the Layers ▸ Filter commands find a viewer's widget here.
     instances: weakref.WeakSet[LabyrinthWidget] = weakref.WeakSet()
+    #: Whether a run's progress also shows in napari's activity panel. Off: while any
+    #: progress is active napari animates an indicator in its status bar that repaints the
+    #: whole window about 30 times a second; under software OpenGL (Xvfb, remote
+    #: desktops) that takes a core from the run (a 2048² plane took twice as long).
+    activity_panel: bool = False
 
     """Dock widget that renders an image layer with the labyrinthine tiling.
 
@@ -362,7 +367,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             self.status.value = f"Not started: {exc}"
             return None
         self._watch_window()
-        worker = render_worker(plan)
+        worker = render_worker(plan, progress=self.activity_panel)
         worker.returned.connect(self._on_returned)
         worker.finished.connect(self._on_finished)
         worker.yielded.connect(self._on_progress)

@@ -118,11 +118,11 @@ def _update_in_place(layer: Image, data, kwargs: dict) -> None:
         raise ValueError(f"cannot update a layer in place with {sorted(unknown)}")
     layer.data = data
     for name in IN_PLACE:
-        if name in kwargs and not _agrees(getattr(layer, name), kwargs[name]):
+        if name in kwargs and not agrees(getattr(layer, name), kwargs[name]):
             setattr(layer, name, kwargs[name])  # a transform set costs napari a new extent
 
 
-def _agrees(current: Any, value: Any) -> bool:
+def agrees(current: Any, value: Any) -> bool:
     """Whether a layer attribute already holds ``value`` (False when unsure: then it is set)."""
     if hasattr(current, "affine_matrix"):
         current = current.affine_matrix
