@@ -43,6 +43,35 @@ def _clear(viewer) -> None:
         _events(0.05)
 
 
+class DrawMeter:
+    """The longest single draw of the canvas by vispy (``paintGL``: the scene, and the upload
+    of changed textures, in software under Xvfb), while on."""
+
+    def __init__(self) -> None:
+        from vispy.app.backends import _qt
+
+        self._backend = _qt.CanvasBackendDesktop
+        self._paint = self._backend.paintGL
+        self.longest = 0.0
+
+    def __enter__(self):
+        meter, paint = self, self._paint
+
+        def timed_paint(backend):
+            started = time.perf_counter()
+            try:
+                return paint(backend)
+            finally:
+                meter.longest = max(meter.longest, time.perf_counter() - started)
+
+        self.longest = 0.0
+        self._backend.paintGL = timed_paint
+        return self
+
+    def __exit__(self, *_exc) -> None:
+        self._backend.paintGL = self._paint
+
+
 class GapMeter:
     """The longest interval between ticks of a 20 ms QTimer: how long the event loop stalled."""
 
@@ -108,7 +137,8 @@ def _timed_run(widget) -> dict[str, float]:
     - ``gap_rendering``: the longest event-loop gap until then;
     - ``adding``: the main thread's time adding (or updating) the result layer;
     - ``gap_showing``: the longest gap from the last step to 0.5 s after the end: the
-      layer added or updated, then drawn (the texture upload, in software under Xvfb).
+      layer added or updated, then drawn (the texture upload, in software under Xvfb);
+    - ``drawing``: the longest single draw of the canvas by vispy in that time.
     """
     worker = widget.run(start=False)
     total_steps = widget.progress_bar.maximum()
@@ -116,11 +146,14 @@ def _timed_run(widget) -> dict[str, float]:
     marks: dict[str, float] = {}
     add_result = widget._add_result
 
+    draw = DrawMeter()
+
     def on_step(step: int) -> None:
         if step >= total_steps:  # the last step: the result goes to the main thread next
             marks["rendered"] = time.perf_counter()
             marks["gap_rendering"] = gap.longest
             gap.longest = 0.0
+            draw.__enter__()
 
     def timed_add(*arguments):
         started = time.perf_counter()
@@ -140,6 +173,7 @@ def _timed_run(widget) -> dict[str, float]:
             _events(0.5)
     finally:
         del widget._add_result  # back to the method
+        draw.__exit__()
     rendered = marks.get("rendered", finished)
     return {
         "total": finished - started,
@@ -147,6 +181,7 @@ def _timed_run(widget) -> dict[str, float]:
         "gap_rendering": marks.get("gap_rendering", gap.longest),
         "adding": marks.get("adding", 0.0),
         "gap_showing": gap.longest,
+        "drawing": draw.longest,
     }
 
 
@@ -201,14 +236,16 @@ def bench_single(viewer, widget, size: int, repeats: int, replace: bool) -> list
 def _print_runs(runs: list[dict]) -> None:
     """One line per run (milliseconds but the total)."""
     print(
-        "  run   total   rendering(worker)   gap while rendering   adding the layer(main)"
-        "   gap while adding + drawing"
+        "  run   total   rendering   longest gap   adding the layer   longest gap while"
+        "   of which: longest\n"
+        "                 (worker)   while rendering    (main thread)   adding + drawing"
+        "   vispy draw (paintGL)"
     )
     for k, r in enumerate(runs, 1):
         print(
-            f"  {k:>3} {r['total']:6.2f} s {1000 * r['rendering']:12.0f} ms"
-            f" {1000 * r['gap_rendering']:17.0f} ms {1000 * r['adding']:20.0f} ms"
-            f" {1000 * r['gap_showing']:22.0f} ms"
+            f"  {k:>3} {r['total']:6.2f} s {1000 * r['rendering']:7.0f} ms"
+            f" {1000 * r['gap_rendering']:13.0f} ms {1000 * r['adding']:15.0f} ms"
+            f" {1000 * r['gap_showing']:17.0f} ms {1000 * r['drawing']:17.0f} ms"
         )
 
 

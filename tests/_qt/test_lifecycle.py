@@ -196,3 +196,20 @@ def test_closing_the_viewer_cancels_the_run(qtbot, make_napari_viewer):
         worker.start()
     assert widget._closed
     qtbot.waitUntil(_no_rendering_thread, timeout=RUN_TIMEOUT_MS)
+
+
+def test_the_progress_bar_changes_a_few_times_a_second_and_shows_the_end(widget, monkeypatch):
+    import napari_labyrinth._qt.widget as widget_module
+
+    clock = [100.0]
+    monkeypatch.setattr(widget_module.time, "monotonic", lambda: clock[0])
+    widget.progress_bar.setRange(0, 10)
+    widget.progress_bar.setValue(0)
+    widget._progress_shown = clock[0]
+    widget._on_progress(1)
+    assert widget.progress_bar.value() == 0  # too soon after the last change
+    clock[0] += widget_module.PROGRESS_INTERVAL
+    widget._on_progress(2)
+    assert widget.progress_bar.value() == 2
+    widget._on_progress(10)
+    assert widget.progress_bar.value() == 10  # the last step, at once

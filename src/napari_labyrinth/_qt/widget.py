@@ -11,6 +11,7 @@ call so that it can be reproduced exactly.
 
 from __future__ import annotations
 
+import time
 import weakref
 from typing import Any
 
@@ -45,6 +46,9 @@ from .sweep_label import SweepLabel
 from .worker import add_result_layer, render_worker, stop
 
 __all__ = ["LabyrinthWidget"]
+
+#: Least seconds between two updates of the progress bar (but the last).
+PROGRESS_INTERVAL = 0.2
 
 
 class LabyrinthWidget(ClosesWithItsDock, QWidget):
@@ -144,6 +148,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self._cancel_reason = ""
         self._shown_plane: tuple[int, ...] | None = None
         self._closed = False
+        self._progress_shown = 0.0
         self.sweep_label = SweepLabel(self.viewer)
         self.preview = Preview(self.viewer, self.inputs.snapshot, self.choices, self._say, self)
         self.preview_toggle.changed.connect(self._on_preview_toggled)
@@ -379,6 +384,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self.cancel_button.enabled = True
         self.progress_bar.setRange(0, plan.total_steps)
         self.progress_bar.setValue(0)
+        self._progress_shown = time.monotonic()
         self.progress_bar.setVisible(True)
         self.status.value = f"Rendering {plan.description} …"
         if start:
@@ -424,8 +430,13 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self.status.value = f"Added {plan.description} ({outcome.seconds:.1f} s)"
 
     def _on_progress(self, step: int) -> None:
-        if not self._closed:  # after close the Qt side of the widget may be gone
+        if self._closed:  # after close the Qt side of the widget may be gone
+            return
+        # each change repaints the window (tens of ms under software OpenGL): a few a second
+        now = time.monotonic()
+        if step >= self.progress_bar.maximum() or now - self._progress_shown >= PROGRESS_INTERVAL:
             self.progress_bar.setValue(step)
+            self._progress_shown = now
 
     def _on_finished(self) -> None:
         cancelled = self._plan is not None and not self._outcome_received
