@@ -202,7 +202,7 @@ def test_the_progress_bar_changes_a_few_times_a_second_and_shows_the_end(widget,
     import napari_labyrinth._qt.widget as widget_module
 
     clock = [100.0]
-    monkeypatch.setattr(widget_module.time, "monotonic", lambda: clock[0])
+    monkeypatch.setattr(widget_module, "_clock", lambda: clock[0])
     widget.progress_bar.setRange(0, 10)
     widget.progress_bar.setValue(0)
     widget._progress_shown = clock[0]

@@ -49,6 +49,8 @@ __all__ = ["LabyrinthWidget"]
 
 #: Least seconds between two updates of the progress bar (but the last).
 PROGRESS_INTERVAL = 0.2
+#: The clock of those updates.
+_clock = time.monotonic
 
 
 class LabyrinthWidget(ClosesWithItsDock, QWidget):
@@ -384,7 +386,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self.cancel_button.enabled = True
         self.progress_bar.setRange(0, plan.total_steps)
         self.progress_bar.setValue(0)
-        self._progress_shown = time.monotonic()
+        self._progress_shown = _clock()
         self.progress_bar.setVisible(True)
         self.status.value = f"Rendering {plan.description} …"
         if start:
@@ -433,7 +435,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         if self._closed:  # after close the Qt side of the widget may be gone
             return
         # each change repaints the window (tens of ms under software OpenGL): a few a second
-        now = time.monotonic()
+        now = _clock()
         if step >= self.progress_bar.maximum() or now - self._progress_shown >= PROGRESS_INTERVAL:
             self.progress_bar.setValue(step)
             self._progress_shown = now
