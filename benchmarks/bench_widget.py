@@ -1,8 +1,20 @@
 """The widget in a real viewer: preview latency, stack time, cancel time, event-loop gaps.
 
-Run under Xvfb: ``xvfb-run -a python benchmarks/bench_widget.py`` (``make bench-widget``).
-Prints figures; asserts nothing. Every figure is the best (or, for gaps, the worst)
-of a few runs after a warm-up; the machine's load is printed before and after.
+Run under Xvfb: ``xvfb-run -a python benchmarks/bench_widget.py`` (``make bench-widget``);
+``--parts preview,single,stack,planes`` chooses the parts. Prints figures; asserts
+nothing; the machine's load is printed before and after. Parts:
+
+- ``preview``: from a change of V to the updated preview layer, 1024² and 2048²;
+- ``single``: Run -> result layer of one 2048² uint16 plane, default preset, warm, split
+  into the worker's rendering and napari's time adding the layer, when the run updates
+  the last result in place ("replace last", the default) and when it adds a layer;
+- ``stack``: 4 passes with metrics, 2048²; the time to cancel;
+- ``planes``: a 20-plane 2048² movie, 4 passes (the first run adds the layer).
+
+Each run is watched by a 20 ms QTimer: the longest gap between its ticks while the
+worker renders, and from the last step to 0.5 s after the end (the layer added or
+updated, then drawn), with the longest single draw of the canvas by vispy in that time.
+Under Xvfb every repaint of the window goes through software OpenGL.
 """
 
 from __future__ import annotations
