@@ -55,14 +55,6 @@ _clock = time.monotonic
 
 
 class LabyrinthWidget(ClosesWithItsDock, QWidget):
-    #: Every widget alive: the Layers ▸ Filter commands find a viewer's widget here.
-    instances: weakref.WeakSet[LabyrinthWidget] = weakref.WeakSet()
-    #: Whether a run's progress also shows in napari's activity panel. Off: while any
-    #: progress is active napari animates an indicator in its status bar that repaints the
-    #: whole window about 30 times a second; under software OpenGL (Xvfb, remote
-    #: desktops) that takes a core from the run (a 2048² plane took twice as long).
-    activity_panel: bool = False
-
     """Dock widget that renders an image layer with the labyrinthine tiling.
 
     Parameters
@@ -107,6 +99,14 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
     last_result : napari.layers.Image or None
         The layer the last run added.
     """
+
+    #: Every widget alive: the Layers ▸ Filter commands find a viewer's widget here.
+    instances: weakref.WeakSet[LabyrinthWidget] = weakref.WeakSet()
+    #: Whether a run's progress also shows in napari's activity panel. Off: while any
+    #: progress is active napari animates an indicator in its status bar that repaints the
+    #: whole window about 30 times a second; under software OpenGL (Xvfb, remote
+    #: desktops) that takes a core from the run (a 2048² plane took twice as long).
+    activity_panel: bool = False
 
     def __init__(self, napari_viewer: Viewer) -> None:
         super().__init__()
