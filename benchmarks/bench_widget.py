@@ -1,8 +1,20 @@
 """The widget in a real viewer: preview latency, stack time, cancel time, event-loop gaps.
 
-Run under Xvfb: ``xvfb-run -a python benchmarks/bench_widget.py`` (``make bench-widget``).
-Prints figures; asserts nothing. Every figure is the best (or, for gaps, the worst)
-of a few runs after a warm-up; the machine's load is printed before and after.
+Run under Xvfb: ``xvfb-run -a python benchmarks/bench_widget.py`` (``make bench-widget``);
+``--parts preview,single,stack,planes`` chooses the parts. Prints figures; asserts
+nothing; the machine's load is printed before and after. Parts:
+
+- ``preview``: from a change of V to the updated preview layer, 1024² and 2048²;
+- ``single``: Run -> result layer of one 2048² uint16 plane, default preset, warm, split
+  into the worker's rendering and napari's time adding the layer, when the run updates
+  the last result in place ("replace last", the default) and when it adds a layer;
+- ``stack``: 4 passes with metrics, 2048²; the time to cancel;
+- ``planes``: a 20-plane 2048² movie, 4 passes (the first run adds the layer).
+
+Each run is watched by a 20 ms QTimer: the longest gap between its ticks while the
+worker renders, and from the last step to 0.5 s after the end (the layer added or
+updated, then drawn), with the longest single draw of the canvas by vispy in that time.
+Under Xvfb every repaint of the window goes through software OpenGL.
 """
 
 from __future__ import annotations
@@ -41,6 +53,35 @@ def _clear(viewer) -> None:
     for layer in list(viewer.layers):
         viewer.layers.remove(layer)
         _events(0.05)
+
+
+class DrawMeter:
+    """The longest single draw of the canvas by vispy (``paintGL``: the scene, and the upload
+    of changed textures, in software under Xvfb), while on."""
+
+    def __init__(self) -> None:
+        from vispy.app.backends import _qt
+
+        self._backend = _qt.CanvasBackendDesktop
+        self._paint = self._backend.paintGL
+        self.longest = 0.0
+
+    def __enter__(self):
+        meter, paint = self, self._paint
+
+        def timed_paint(backend):
+            started = time.perf_counter()
+            try:
+                return paint(backend)
+            finally:
+                meter.longest = max(meter.longest, time.perf_counter() - started)
+
+        self.longest = 0.0
+        self._backend.paintGL = timed_paint
+        return self
+
+    def __exit__(self, *_exc) -> None:
+        self._backend.paintGL = self._paint
 
 
 class GapMeter:
@@ -100,30 +141,64 @@ def bench_preview(viewer, widget, size: int, repeats: int) -> float:
     return min(times[1:])
 
 
-def _timed_run(widget) -> tuple[float, float, float]:
-    """Run the widget; (total seconds, longest event-loop gap while rendering, seconds
-    spent adding the result layer on the main thread)."""
+def _timed_run(widget) -> dict[str, float]:
+    """Run the widget and watch the event loop with a 20 ms timer. Seconds:
+
+    - ``total``: from the start of the worker to the end of the run (result shown);
+    - ``rendering``: from the start to the run's last step (the worker thread's part);
+    - ``gap_rendering``: the longest event-loop gap until then;
+    - ``adding``: the main thread's time adding (or updating) the result layer;
+    - ``gap_showing``: the longest gap from the last step to 0.5 s after the end: the
+      layer added or updated, then drawn (the texture upload, in software under Xvfb);
+    - ``drawing``: the longest single draw of the canvas by vispy in that time.
+    """
     worker = widget.run(start=False)
-    total_steps = worker.pbar.total
+    total_steps = widget.progress_bar.maximum()
     gap = GapMeter()
-    rendered = []
+    marks: dict[str, float] = {}
+    add_result = widget._add_result
+
+    draw = DrawMeter()
 
     def on_step(step: int) -> None:
         if step >= total_steps:  # the last step: the result goes to the main thread next
-            gap.timer.stop()
-            rendered.append(time.perf_counter())
+            marks["rendered"] = time.perf_counter()
+            marks["gap_rendering"] = gap.longest
+            gap.longest = 0.0
+            draw.__enter__()
+
+    def timed_add(*arguments):
+        started = time.perf_counter()
+        try:
+            return add_result(*arguments)
+        finally:
+            marks["adding"] = time.perf_counter() - started
 
     worker.yielded.connect(on_step)
+    widget._add_result = timed_add
     started = time.perf_counter()
-    with gap:
-        worker.start()
-        _wait(lambda: widget.worker is None)
-    finished = time.perf_counter()
-    return finished - started, gap.longest, finished - (rendered or [finished])[0]
+    try:
+        with gap:
+            worker.start()
+            _wait(lambda: widget.worker is None)
+            finished = time.perf_counter()
+            _events(0.5)
+    finally:
+        del widget._add_result  # back to the method
+        draw.__exit__()
+    rendered = marks.get("rendered", finished)
+    return {
+        "total": finished - started,
+        "rendering": rendered - started,
+        "gap_rendering": marks.get("gap_rendering", gap.longest),
+        "adding": marks.get("adding", 0.0),
+        "gap_showing": gap.longest,
+        "drawing": draw.longest,
+    }
 
 
-def bench_stack(viewer, widget, size: int, repeats: int) -> tuple[float, float, float, float]:
-    """Best total of a 4-pass stack with metrics, time to cancel, longest gap, layer add."""
+def bench_stack(viewer, widget, size: int, repeats: int) -> tuple[list[dict], float]:
+    """Runs of a 4-pass stack with metrics (after a warm-up), and the best time to cancel."""
     _clear(viewer)
     viewer.add_image(image(size), name=f"{size}")
     widget.mode.value = "stack"
@@ -142,21 +217,48 @@ def bench_stack(viewer, widget, size: int, repeats: int) -> tuple[float, float, 
         _wait(lambda: widget.worker is None)
         cancels.append(time.perf_counter() - started)
     widget.mode.value = "single"
-    return (
-        min(r[0] for r in runs),
-        min(cancels),
-        max(r[1] for r in runs),
-        max(r[2] for r in runs),
-    )
+    return runs, min(cancels)
 
 
-def bench_planes(viewer, widget, size: int, planes: int) -> tuple[float, float, float]:
-    """Time, longest event-loop gap while rendering, and layer add of a ``planes``-plane run."""
+def bench_planes(viewer, widget, size: int, planes: int, repeats: int) -> list[dict]:
+    """Runs of a ``planes``-plane movie, 4 passes: the first adds the layer, the next
+    replace it (the widget's "replace last", on by default)."""
     _clear(viewer)
     viewer.add_image(image(size, planes), name="movie")
     widget.mode.value = "single"
     widget.fields["passes"].value = 4
-    return _timed_run(widget)
+    return [_timed_run(widget) for _ in range(repeats)]
+
+
+def bench_single(viewer, widget, size: int, repeats: int, replace: bool) -> list[dict]:
+    """Runs of one ``size``² uint16 plane, default preset, after a warm-up run."""
+    _clear(viewer)
+    viewer.add_image(image(size), name=f"{size}")
+    widget.mode.value = "single"
+    widget.replace.value = replace
+    runs = [_timed_run(widget) for _ in range(repeats + 1)][1:]
+    if not replace:  # one new layer a run: remove them, one at a time
+        for layer in [layer for layer in viewer.layers if layer.name != f"{size}"]:
+            viewer.layers.remove(layer)
+            _events(0.05)
+    widget.replace.value = True
+    return runs
+
+
+def _print_runs(runs: list[dict]) -> None:
+    """One line per run (milliseconds but the total)."""
+    print(
+        "  run   total   rendering   longest gap   adding the layer   longest gap while"
+        "   of which: longest\n"
+        "                 (worker)   while rendering    (main thread)   adding + drawing"
+        "   vispy draw (paintGL)"
+    )
+    for k, r in enumerate(runs, 1):
+        print(
+            f"  {k:>3} {r['total']:6.2f} s {1000 * r['rendering']:7.0f} ms"
+            f" {1000 * r['gap_rendering']:13.0f} ms {1000 * r['adding']:15.0f} ms"
+            f" {1000 * r['gap_showing']:17.0f} ms {1000 * r['drawing']:17.0f} ms"
+        )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -164,7 +266,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--planes", type=int, default=20, help="planes of the movie (2048²)")
     parser.add_argument(
-        "--parts", default="preview,stack,planes", help="comma-separated parts to run"
+        "--parts", default="preview,single,stack,planes", help="comma-separated parts to run"
     )
     parser.add_argument("--sizes", default="1024,2048", help="preview sizes")
     args = parser.parse_args(argv)
@@ -178,6 +280,9 @@ def main(argv: list[str] | None = None) -> int:
         for size in map(int, args.sizes.split(",")):
             with _viewer() as (viewer, widget):
                 _preview_part(viewer, widget, size, args)
+    if "single" in parts:
+        with _viewer() as (viewer, widget):
+            _single_part(viewer, widget, args)
     if "stack" in parts:
         with _viewer() as (viewer, widget):
             _stack_part(viewer, widget, args)
@@ -212,19 +317,31 @@ def _preview_part(viewer, widget, size: int, args) -> None:
 
 
 def _stack_part(viewer, widget, args) -> None:
-    print("\nstack mode, 4 passes, metrics of every pass (2048², uint16)")
-    total, cancel, gap, adding = bench_stack(viewer, widget, 2048, args.repeats)
-    print(f"  total:  {total:6.2f} s (best of {args.repeats}, after a warm-up run)")
+    print("\nstack mode, 4 passes, metrics of every pass (2048², uint16), replace last on")
+    runs, cancel = bench_stack(viewer, widget, 2048, args.repeats)
+    _print_runs(runs)
+    print(f"  best total: {min(r['total'] for r in runs):.2f} s")
     print(f"  cancel: {1000 * cancel:6.0f} ms (from Cancel to the end of the worker, best)")
-    print(f"  longest event-loop gap while rendering and measuring: {1000 * gap:.0f} ms")
-    print(f"  adding the result layer (napari, main thread): {1000 * adding:.0f} ms (worst)")
 
 
 def _planes_part(viewer, widget, args) -> None:
-    seconds, gap, adding = bench_planes(viewer, widget, 2048, args.planes)
-    print(f"\nsingle mode, {args.planes} planes of 2048², 4 passes: {seconds:.1f} s")
-    print(f"  longest event-loop gap while rendering: {1000 * gap:.0f} ms")
-    print(f"  adding the result layer (napari, main thread): {1000 * adding:.0f} ms")
+    print(f"\nsingle mode, {args.planes} planes of 2048², 4 passes (run 1 adds the layer,")
+    print("the next runs update it in place: replace last on)")
+    _print_runs(bench_planes(viewer, widget, 2048, args.planes, args.repeats))
+
+
+def _single_part(viewer, widget, args) -> None:
+    for replace in (True, False):
+        what = "updates the last result in place" if replace else "adds a new layer"
+        print(f"\nRun -> layer, one 2048² uint16 plane, default preset, warm; each run {what}")
+        runs = bench_single(viewer, widget, 2048, args.repeats, replace)
+        _print_runs(runs)
+        best = min(runs, key=lambda r: r["total"])
+        print(
+            f"  best: {1000 * best['total']:.0f} ms = rendering {1000 * best['rendering']:.0f} ms"
+            f" + napari (adding the layer) {1000 * best['adding']:.0f} ms"
+            f" + the rest {1000 * (best['total'] - best['rendering'] - best['adding']):.0f} ms"
+        )
 
 
 if __name__ == "__main__":

@@ -204,6 +204,36 @@ def test_a_comparisons_edge_enhancement_is_the_one_describe_gives(cases, monkeyp
         comparison.edge_enhancement(np.zeros((9, 8)))
 
 
+def test_the_originals_contours_are_computed_where_walls_need_them_once(monkeypatch):
+    """Rows of column tiles holding walls, each once; the same values as everywhere."""
+    from napari_labyrinth import _metrics_kernels
+
+    rng = np.random.default_rng(3)
+    height, width = 96, 1100  # three column tiles
+    original = ndimage.gaussian_filter(rng.random((height, width)) * 255, 4)
+    walls = np.zeros((height, width), dtype=bool)
+    walls[10:14, 30:40] = True  # tile 0
+    walls[70, 900] = True  # tile 2
+    assert _metrics_kernels.tensor_tiles(width, 32) == 3
+    sigma = metrics.CONTOUR_SIGMA
+    everywhere = metrics._Maps(original.copy(), workers=1).contours(sigma, np.ones_like(walls))
+    maps = metrics._Maps(original.copy(), workers=1)
+    calls = _count_calls(monkeypatch, "orientation_band")
+    partial = maps.contours(sigma, walls)
+    assert len(calls) == 1
+    needed = calls[0][4]  # (rows, tiles) computed
+    assert needed.sum() == 5 and needed[10:14, 0].all() and needed[70, 2]
+    for part, whole in zip(partial, everywhere):
+        np.testing.assert_array_equal(part[walls], whole[walls])
+    maps.contours(sigma, np.zeros_like(walls))  # no wall: nothing to compute
+    maps.contours(sigma, walls)
+    assert len(calls) == 1
+    maps.contours(sigma, np.ones_like(walls))  # the rest, once
+    assert len(calls) == 2 and calls[1][4].sum() == 3 * height - 5
+    for part, whole in zip(maps.contours(sigma, walls), everywhere):
+        np.testing.assert_array_equal(part, whole)
+
+
 def test_a_comparison_keeps_its_own_copy_of_the_original(cases):
     original = cases["original"].copy()
     comparison = metrics.Comparison(original)

@@ -726,6 +726,8 @@ TENSOR_DERIVED = 1  # strength, coherence * strength, cos(2 angle), sin(2 angle)
 #: Bytes of :func:`orientation_band`'s ring of smoothed rows per column tile when only
 #: the walls' pixels are asked for: narrow tiles skip more rows without walls.
 TENSOR_RING_BYTES = 256 * 1024
+#: Least width of those tiles (2048 x 2048 walls of a labyrinth: 4 tiles are fastest).
+TENSOR_MIN_TILE = 512
 
 
 @njit(cache=True, nogil=True)
@@ -904,9 +906,9 @@ def _phase_pair(line_e, line_o, pad, n, t):
 
 @njit(cache=True, nogil=True)
 def _tensor_tile(
-    plane, scale, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3
+    plane, scale, weights, mode, needed, tile_index, x0, x1, y0, y1, out0, out1, out2, out3
 ):
-    """:func:`orientation_band` on the output columns ``[x0, x1)``."""
+    """:func:`orientation_band` on the output columns ``[x0, x1)`` (column tile ``tile_index``)."""
     height, width = plane.shape
     doubled_height = 2 * height
     radius = weights.shape[0] - 1
@@ -916,20 +918,6 @@ def _tensor_tile(
     tile = x1 - x0
     origin = x0 - pad  # phase column of local index 0
     n = tile + 2 * pad
-    # which output rows (of the band, +- radius / 2 rows) hold a wall pixel in the tile
-    first = max(0, y0 - pad)
-    last = min(height, y1 + pad)
-    has_walls = np.ones(last - first + 1, dtype=np.int64)  # prefix counts, has_walls[0] = 0
-    has_walls[0] = 0
-    for y in range(first, last):
-        found = True
-        if use_walls:
-            found = False
-            for x in range(x0, x1):
-                if walls[y, x]:
-                    found = True
-                    break
-        has_walls[y - first + 1] = has_walls[y - first] + (1 if found else 0)
     rows_e = np.zeros((4, n), dtype=np.float32)  # doubled rows: slots 0..2 by row % 3, 3 zero
     rows_o = np.zeros((4, n), dtype=np.float32)
     row_of_slot = np.full(3, -1, dtype=np.int64)
@@ -944,8 +932,8 @@ def _tensor_tile(
     upper = np.empty(radius + 1, dtype=np.int64)
     next_row = max(0, 2 * y0 - radius)
     for y in range(y0, y1):
-        if has_walls[y - first + 1] == has_walls[y - first]:
-            continue  # no wall pixel in this row of the tile: nothing to measure
+        if not needed[y, tile_index]:
+            continue  # nothing asked for in this row of the tile
         centre = 2 * y
         next_row = max(next_row, centre - radius)
         last_row = min(centre + radius, doubled_height - 1)
@@ -1032,9 +1020,7 @@ def _derive(rr, rc, cc, strength, coherent, cosine, sine):
 
 
 @njit(cache=True, nogil=True)
-def orientation_band(
-    plane, scale, weights, mode, walls, use_walls, out0, out1, out2, out3, y0, y1
-):
+def orientation_band(plane, scale, weights, mode, needed, out0, out1, out2, out3, y0, y1):
     """Structure tensor of ``zoom(plane, 2)`` at the even doubled pixels of rows ``[y0, y1)``.
 
     ``skimage.feature.structure_tensor(doubled, sigma, order="rc")[::2, ::2]``:
@@ -1045,22 +1031,46 @@ def orientation_band(
     TENSOR_DERIVED writes the strength ``l1 + l2``, coherence times strength,
     and cos, sin of twice the angle to ``out0..out3``. The plane is first
     multiplied by ``scale``, a power of two (the strengths by its square).
-    With ``use_walls``,
-    only rows of column tiles that hold a True pixel of ``walls`` are
-    computed (the other pixels of the outputs are left as they were).
+
+    The columns are cut into ``n = needed.shape[1]`` tiles (tile k: columns
+    ``[k W // n, (k + 1) W // n)``); row y of tile k is computed where
+    ``needed[y, k]``, the other pixels of the outputs are left as they were
+    (see :func:`tensor_tiles` and :func:`tiles_with`).
     """
     width = plane.shape[1]
-    radius = weights.shape[0] - 1
-    tile = width  # whole rows are fastest when every pixel is asked for
-    if use_walls:
-        tile = max(256, TENSOR_RING_BYTES // (3 * (2 * radius + 2) * 4))
-    count = max(1, (width + tile - 1) // tile)
+    count = needed.shape[1]
     for k in range(count):
         x0 = (k * width) // count
         x1 = ((k + 1) * width) // count
-        _tensor_tile(
-            plane, scale, weights, mode, walls, use_walls, x0, x1, y0, y1, out0, out1, out2, out3
-        )
+        _tensor_tile(plane, scale, weights, mode, needed, k, x0, x1, y0, y1, out0, out1, out2, out3)
+
+
+def tensor_tiles(width: int, radius: int) -> int:
+    """Column tiles of :func:`orientation_band` when only some pixels are asked for.
+
+    Narrow tiles skip more rows without a pixel asked for, but their short
+    loops cost more per pixel: tiles hold a ring of smoothed rows of
+    ``TENSOR_RING_BYTES`` and are at least ``TENSOR_MIN_TILE`` columns wide.
+    """
+    tile = max(TENSOR_MIN_TILE, TENSOR_RING_BYTES // (3 * (2 * radius + 2) * 4))
+    return max(1, (width + tile - 1) // tile)
+
+
+@njit(cache=True, nogil=True)
+def tiles_with(mask, needed, y0, y1):
+    """``needed[y, k]`` = whether row y of column tile k (see :func:`orientation_band`)
+    holds a True pixel of ``mask``, for rows ``[y0, y1)``."""
+    width = mask.shape[1]
+    count = needed.shape[1]
+    for y in range(y0, y1):
+        row = mask[y]
+        for k in range(count):
+            found = False
+            for x in range((k * width) // count, ((k + 1) * width) // count):
+                if row[x]:
+                    found = True
+                    break
+            needed[y, k] = found
 
 
 # --- reductions --------------------------------------------------------------------------

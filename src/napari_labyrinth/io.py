@@ -30,7 +30,6 @@ import dataclasses
 import errno
 import functools
 import os
-import secrets
 import shutil
 import threading
 from collections.abc import Callable, Sequence
@@ -38,6 +37,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from ._budget import declared_refusal, pillow_header, refusal
+from ._leftovers import remove_stale_temporaries, temporary_name
 
 #: Lower-case file suffix -> format name.
 FORMATS = {
@@ -134,9 +136,11 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     kind = image_format(path)
     if kind == "ZARR":
         array = _open_zarr_array(path)
+        _refuse_unaffordable(path, refusal(array.shape, array.dtype))
         image = np.asarray(array[...])
         return _native(image)
     _require_file(path)
+    _refuse_unaffordable(path, declared_refusal(path, kind))
     try:
         if kind == "TIFF":
             import tifffile
@@ -243,6 +247,12 @@ def _published(temporary: Path, path: Path, *, overwrite: bool):
         raise
 
 
+def _refuse_unaffordable(path: Path, reason: str | None) -> None:
+    """Refuse, before reading, an image that needs more memory than the run may use."""
+    if reason is not None:
+        raise ImageFileError(path, reason)
+
+
 def _require_file(path: Path) -> None:
     """Raise a clear error unless ``path`` is an existing file."""
     if not path.exists():
@@ -288,8 +298,9 @@ def _check_storable(path: Path, kind: str, array: Any) -> None:
 def _create_temporary(directory: Path, name: str):
     """A new hidden file beside the destination, opened for binary writing."""
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+    remove_stale_temporaries(directory, name)
     while True:
-        temporary = directory / f".{name}.{secrets.token_hex(4)}.tmp"
+        temporary = directory / temporary_name(name)
         try:
             fd = os.open(temporary, flags, 0o666)  # the umask applies, unlike mkstemp
         except FileExistsError:
@@ -400,6 +411,7 @@ def open_image(
     if kind == "ZARR":
         array = _open_zarr_array(path)
         if lazy is False:
+            _refuse_unaffordable(path, refusal(array.shape, array.dtype))
             return _native(np.asarray(array[...]))
         import dask.array as da
 
@@ -415,7 +427,8 @@ def open_image(
     if 0 in shape:
         raise ImageFileError(path, f"the file holds no pixels (shape {shape})")
     planes = int(np.prod(shape[:-2]))
-    if lazy is None and not (planes > 1 and np.prod(shape) * dtype.itemsize > LAZY_TIFF_BYTES):
+    large = np.prod(shape) * dtype.itemsize > LAZY_TIFF_BYTES or refusal(shape, dtype)
+    if lazy is None and not (planes > 1 and large):
         return read_image(path)
     import dask.array as da
 
@@ -797,8 +810,9 @@ def _is_zarr_store(path: Path) -> bool:
 
 def _create_temporary_directory(directory: Path, name: str) -> Path:
     """A new hidden directory beside the destination."""
+    remove_stale_temporaries(directory, name)
     while True:
-        temporary = directory / f".{name}.{secrets.token_hex(4)}.tmp"
+        temporary = directory / temporary_name(name)
         try:
             os.mkdir(temporary)
         except FileExistsError:
@@ -811,7 +825,7 @@ def _publish_directory(temporary: Path, path: Path, *, overwrite: bool) -> None:
     if not overwrite or not os.path.lexists(path):
         _rename_no_replace(temporary, path)
         return
-    old = path.parent / f".{path.name}.{secrets.token_hex(4)}.old"
+    old = path.parent / temporary_name(path.name, ".old")
     os.rename(path, old)
     try:
         os.rename(temporary, path)
@@ -1066,11 +1080,9 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
 
 
 def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
-    from PIL import Image
-
     from .provenance import KEY
 
-    with Image.open(path) as image:
+    with pillow_header(path) as image:  # past Pillow's size limit: the budget judges size
         mode = image.mode
         if kind == "PNG":
             text = getattr(image, "text", {}).get(KEY)

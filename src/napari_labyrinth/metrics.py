@@ -330,20 +330,38 @@ class _Maps:
         def compute():
             fine = self._fine()
             scale = _float32_scale(math.sqrt(fine.largest_square))
-            return _derived_orientation(
+            return _wall_orientation(
                 fine.fine, scale, WINDOW_SIGMA, self.workers, self.walls()[0], self._empty
             )
 
         return self._get("wall_orientation", compute)
 
-    def contours(self, sigma: float) -> tuple[np.ndarray, ...]:
-        """The same for the plane itself at ``sigma``, everywhere: its contours."""
+    def contours(self, sigma: float, walls: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The same for the plane itself at ``sigma``: its contours, on ``walls`` (at least).
 
-        def compute():
-            scale = _float32_scale(self._fine().largest_tone)
-            return _derived_orientation(self.plane, scale, sigma, self.workers, None, self._empty)
-
-        return self._get(("contours", float(sigma)), compute)
+        The maps are computed row by row of column tiles, the rows and tiles
+        that hold a pixel of ``walls`` and were not computed for earlier
+        walls: a stack's passes compute each part of the original's contours
+        once, and only the parts some walls need.
+        """
+        kernels = _kernels()
+        weights = _weights(2 * sigma, np.float32)
+        with self._lock:
+            key = ("contours", float(sigma))
+            if key not in self._values:
+                maps = tuple(self._empty(np.float32) for _ in range(4))
+                tiles = kernels.tensor_tiles(self.plane.shape[1], weights.shape[0] - 1)
+                self._values[key] = (maps, np.zeros((self.plane.shape[0], tiles), dtype=bool))
+            maps, done = self._values[key]
+            needed = _tiles_with(walls, done.shape[1], self.workers)
+            needed &= ~done
+            if needed.any():
+                scale = _float32_scale(self._fine().largest_tone)
+                _orientation_maps(
+                    self.plane, scale, sigma, kernels.TENSOR_DERIVED, self.workers, needed, maps
+                )
+                done |= needed
+            return maps
 
     def edges(self) -> tuple[np.ndarray, float, float, bool]:
         """Sobel magnitude, its mean, ``sum((s - mean)**2)`` and whether it is constant."""
@@ -408,21 +426,15 @@ def _read_only(array: np.ndarray) -> np.ndarray:
     return view
 
 
-def _orientation_maps(plane, scale, sigma, mode, workers, count, walls=None, empty=None):
-    """Structure-tensor maps of ``plane * scale`` (see ``_metrics_kernels.orientation_band``).
+def _orientation_maps(plane, scale, sigma, mode, workers, needed, outputs):
+    """Structure-tensor maps of ``plane * scale`` into ``outputs`` (four float32 planes).
 
-    With ``walls``, only the pixels of the walls are sure to be computed.
-    ``empty(dtype)`` gives the output arrays.
+    ``needed``: the rows of column tiles to compute (see
+    ``_metrics_kernels.orientation_band``), None for every pixel.
     """
     kernels = _kernels()
-    if empty is None:
-
-        def empty(dtype):
-            return np.empty(plane.shape, dtype=dtype)
-
-    outputs = [empty(np.float32) for _ in range(4)]
-    use_walls = walls is not None
-    walls = walls if use_walls else np.zeros((1, 1), dtype=bool)
+    if needed is None:
+        needed = np.ones((plane.shape[0], 1), dtype=bool)
     _in_bands(
         kernels.orientation_band,
         plane.shape[0],
@@ -431,16 +443,26 @@ def _orientation_maps(plane, scale, sigma, mode, workers, count, walls=None, emp
         scale,
         _weights(2 * sigma, np.float32),
         mode,
-        walls,
-        use_walls,
+        needed,
         *outputs,
     )
-    return tuple(outputs[:count])
+    return outputs
 
 
-def _derived_orientation(plane, scale, sigma, workers, walls=None, empty=None):
+def _tiles_with(walls: np.ndarray, tiles: int, workers) -> np.ndarray:
+    """Which rows of ``tiles`` column tiles hold a pixel of ``walls`` (see ``orientation_band``)."""
+    needed = np.empty((walls.shape[0], tiles), dtype=bool)
+    _in_bands(_kernels().tiles_with, walls.shape[0], workers, walls, needed)
+    return needed
+
+
+def _wall_orientation(plane, scale, sigma, workers, walls, empty):
+    """The derived tensor maps (``TENSOR_DERIVED``) of ``plane * scale``, on ``walls`` (at least)."""
     kernels = _kernels()
-    return _orientation_maps(plane, scale, sigma, kernels.TENSOR_DERIVED, workers, 4, walls, empty)
+    radius = _weights(2 * sigma, np.float32).shape[0] - 1
+    needed = _tiles_with(walls, kernels.tensor_tiles(plane.shape[1], radius), workers)
+    outputs = tuple(empty(np.float32) for _ in range(4))
+    return _orientation_maps(plane, scale, sigma, kernels.TENSOR_DERIVED, workers, needed, outputs)
 
 
 # --- the maps of renderings, shared between the single metrics ---------------------------
@@ -563,8 +585,9 @@ def orientation(image, sigma: float = WINDOW_SIGMA):
     plane = _float_plane(_plane(image))
     largest = float(np.max(np.abs(plane), where=np.isfinite(plane), initial=0.0))
     scale = _float32_scale(largest)
-    components = _orientation_maps(plane, scale, sigma, _kernels().TENSOR_COMPONENTS, None, 3)
-    jrr, jrc, jcc = (component / scale**2 for component in components)  # float64, exact
+    outputs = tuple(np.empty(plane.shape, dtype=np.float32) for _ in range(4))
+    _orientation_maps(plane, scale, sigma, _kernels().TENSOR_COMPONENTS, None, None, outputs)
+    jrr, jrc, jcc = (component / scale**2 for component in outputs[:3])  # float64, exact
     trace = jrr + jcc
     difference = np.sqrt((jrr - jcc) ** 2 + 4 * jrc**2)
     coherence = np.where(trace > 0, (difference / np.maximum(trace, 1e-12)) ** 2, 0.0)
@@ -619,7 +642,7 @@ def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTO
         return math.nan  # NaN or infinity in either image: the weighted sum is NaN
     walls, _, _ = after.walls()
     _, wall_coherent, wall_cos, wall_sin = after.wall_orientation()
-    _, contour_coherent, contour_cos, contour_sin = before.contours(contour_sigma)
+    _, contour_coherent, contour_cos, contour_sin = before.contours(contour_sigma, walls)
     sums = after._row_sums(2)
     after._bands(
         _kernels().alignment_sums,
@@ -689,7 +712,8 @@ class Comparison:
 
     The passes of a stack are renderings of the same input: the original's
     fine-scale energy, Sobel edges and contour orientation are computed on
-    first use and kept for the renderings that follow, and the arrays of a
+    first use and kept for the renderings that follow (the contours only
+    where the walls of some rendering need them), and the arrays of a
     rendering's maps serve the next one. Thread-safe (several threads may
     describe renderings at once); the original is copied, so the caller may
     change its array afterwards.

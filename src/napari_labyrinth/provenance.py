@@ -136,9 +136,11 @@ def call_arguments(
     tone_limits: Sequence[float] | None,
     channel_axis: int | None,
     colour: str | None = None,
+    alpha: bool | None = None,
     sweep: tuple[str, Sequence[Any]] | None = None,
 ) -> dict[str, Any]:
-    """The ``arguments`` of a record: every parameter, the seed, tone limits, channel axis.
+    """The ``arguments`` of a record: every parameter, the seed, tone limits, channel axis
+    (and ``colour``, ``alpha`` when given).
 
     For a sweep the swept parameter (and ``tones`` when ``tone_ranges`` is
     swept: they are reset to T = L) gives way to ``parameter`` and ``values``.
@@ -148,6 +150,8 @@ def call_arguments(
     arguments["channel_axis"] = channel_axis
     if colour is not None:
         arguments["colour"] = colour
+    if alpha is not None:
+        arguments["alpha"] = bool(alpha)
     if sweep:
         sweep_arguments(arguments, *sweep)
     return arguments

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 
+import numpy as np
 import pytest
 
 pytest.importorskip("napari")
@@ -11,7 +12,7 @@ pytest.importorskip("pytestqt")
 
 from napari_labyrinth.plan import METADATA_KEY
 
-from .helpers import RUN_TIMEOUT_MS, noise, run
+from .helpers import RUN_TIMEOUT_MS, noise, reproduce, run
 
 
 def _no_rendering_thread():
@@ -66,7 +67,7 @@ def test_the_widget_shows_the_progress_of_a_run(qtbot, viewer, widget):
     )
     worker.start()
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
-    assert seen and all(maximum == worker.pbar.total for _, maximum in seen)
+    assert seen and all(maximum == 12 * 4 + 1 for _, maximum in seen)  # planes x passes + 1
     assert not widget.progress_bar.isVisible()
 
 
@@ -78,15 +79,72 @@ def test_a_run_of_the_same_input_and_mode_replaces_the_previous_result(qtbot, vi
     first = viewer.layers["cell · labyrinth"]
     position = viewer.layers.index(first)
     viewer.layers.move(position, 0)  # the user put it elsewhere
+    before = np.array(first.data)
     widget.seed.value = 3
     run(qtbot, widget)
     results = [layer for layer in viewer.layers if layer.name.startswith("cell · labyrinth")]
-    assert len(results) == 1 and results[0] is not first
-    assert viewer.layers.index(results[0]) == 0  # in the place of the one it replaced
-    assert results[0].metadata[METADATA_KEY]["seed"] == 3
+    assert results == [first]  # the same layer, updated in place
+    assert viewer.layers.index(first) == 0  # where the user put it
+    assert first.metadata[METADATA_KEY]["seed"] == 3
+    assert not np.array_equal(first.data, before)
+    np.testing.assert_array_equal(first.data, reproduce(first, viewer.layers["cell"].data))
+    assert viewer.layers.selection.active is first
     widget.replace.value = False
     run(qtbot, widget)
     assert sum(layer.name.startswith("cell · labyrinth") for layer in viewer.layers) == 2
+
+
+def test_a_result_that_cannot_hold_the_new_data_is_replaced_by_a_new_layer(
+    qtbot, viewer, widget
+):
+    """A stack has one more axis than the result of a single run: no update in place."""
+    from napari_labyrinth._qt.worker import add_result_layer
+
+    viewer.add_image(noise((32, 32)), name="cell")
+    widget.mode.value = "stack"
+    widget.fields["passes"].value = 2
+    run(qtbot, widget)
+    stack = viewer.layers["cell · stack"]
+    viewer.layers.move(viewer.layers.index(stack), 0)
+    widget.mode.value = "single"
+    plan = widget.plan()
+    outcome = _rendered_outcome(plan)
+    layer = add_result_layer(viewer, plan, outcome, previous=stack)
+    assert layer is not stack and stack not in viewer.layers
+    assert viewer.layers.index(layer) == 0 and layer.ndim == 2
+
+
+def test_an_update_in_place_takes_the_name_contrast_and_transforms_of_the_new_result(
+    qtbot, viewer, widget
+):
+    from napari_labyrinth._qt.worker import add_result_layer
+
+    source = viewer.add_image(noise((32, 32), dtype=np.uint16) * 10, name="cell")
+    run(qtbot, widget)
+    result = viewer.layers["cell · labyrinth"]
+    source.contrast_limits = (100, 2000)
+    source.scale = (2.0, 3.0)
+    source.name = "renamed"
+    widget.image_layer.value = source
+    plan = widget.plan()
+    layer = add_result_layer(viewer, plan, _rendered_outcome(plan), previous=result)
+    assert layer is result and len(viewer.layers) == 2
+    assert layer.name == "renamed · labyrinth"
+    assert tuple(layer.contrast_limits) == (100, 2000)
+    np.testing.assert_array_equal(layer.scale, (2.0, 3.0))
+    assert layer.metadata[METADATA_KEY]["source_layer"] == "renamed"
+
+
+def _rendered_outcome(plan):
+    """The outcome of ``plan``, rendered here (no worker)."""
+    from napari_labyrinth.run import render
+
+    steps = render(plan)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as stop:
+            return stop.value
 
 
 def test_the_sweep_value_of_the_plane_on_screen_is_shown(qtbot, viewer, widget):
@@ -138,3 +196,20 @@ def test_closing_the_viewer_cancels_the_run(qtbot, make_napari_viewer):
         worker.start()
     assert widget._closed
     qtbot.waitUntil(_no_rendering_thread, timeout=RUN_TIMEOUT_MS)
+
+
+def test_the_progress_bar_changes_a_few_times_a_second_and_shows_the_end(widget, monkeypatch):
+    import napari_labyrinth._qt.widget as widget_module
+
+    clock = [100.0]
+    monkeypatch.setattr(widget_module, "_clock", lambda: clock[0])
+    widget.progress_bar.setRange(0, 10)
+    widget.progress_bar.setValue(0)
+    widget._progress_shown = clock[0]
+    widget._on_progress(1)
+    assert widget.progress_bar.value() == 0  # too soon after the last change
+    clock[0] += widget_module.PROGRESS_INTERVAL
+    widget._on_progress(2)
+    assert widget.progress_bar.value() == 2
+    widget._on_progress(10)
+    assert widget.progress_bar.value() == 10  # the last step, at once

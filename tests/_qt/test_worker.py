@@ -19,6 +19,7 @@ def test_progress_bar_counts_every_plane_and_pass(qtbot, viewer, widget, mode, t
     from qtpy.QtWidgets import QApplication
 
     viewer.add_image(noise((3, 512, 512)), name="movie")  # passes of a few ms: the bar shows
+    widget.activity_panel = True
     widget.fields["passes"].value = 2
     widget.mode.value = mode
     widget.sweep_values.value = "0.03, 0.05"
@@ -43,12 +44,34 @@ def test_progress_bar_counts_every_plane_and_pass(qtbot, viewer, widget, mode, t
     assert ("Labyrinthine tiling: ", total) in bars, bars
 
 
+def test_by_default_the_progress_shows_in_the_widget_only(qtbot, viewer, widget):
+    """No bar in napari's activity panel: its animated indicator repaints the window."""
+    from napari._qt.widgets.qt_progress_bar import QtLabeledProgressBar
+    from qtpy.QtWidgets import QApplication
+
+    viewer.add_image(noise((3, 64, 64)), name="movie")
+    widget.fields["passes"].value = 2
+    worker = widget.run(start=False)
+    assert worker.pbar is None and widget.progress_bar.maximum() == 3 * 2 + 1
+    bars = []
+    worker.yielded.connect(
+        lambda _: bars.extend(
+            bar
+            for top in QApplication.topLevelWidgets()
+            for bar in top.findChildren(QtLabeledProgressBar)
+        )
+    )
+    worker.start()
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    assert bars == []
+
+
 def test_cancel_stops_the_run_and_adds_no_layer(qtbot, viewer, widget):
     viewer.add_image(noise((12, 256, 256)), name="movie")
     widget.fields["passes"].value = 4
     layers_before = len(viewer.layers)
     worker = widget.run(start=False)
-    total = worker.pbar.total
+    total = widget.progress_bar.maximum()
     yields = []
 
     def cancel_on_first_yield(value):
@@ -140,3 +163,17 @@ def test_error_notifications_are_napari_notifications(qtbot, viewer, widget):
     notification_manager.records.clear()
     widget.run()  # no image layer
     assert any("choose an image layer" in str(n.message) for n in notification_manager.records)
+
+
+def test_agrees_tells_which_layer_attributes_an_update_must_set():
+    from napari.utils.transforms import Affine
+
+    from napari_labyrinth._qt.worker import agrees
+
+    assert agrees([0.0, 255.0], (0, 255)) and not agrees([0.0, 255.0], [0.0, 254.0])
+    assert agrees(np.array([1.0, 2.0]), [1.0, 2.0]) and not agrees(np.array([1.0]), [1.0, 1.0])
+    assert agrees(np.eye(3), Affine(ndim=2).affine_matrix)
+    assert agrees(Affine(ndim=2), np.eye(3)) and not agrees(Affine(scale=(2, 1)), np.eye(3))
+    assert agrees(("y", "x"), ["y", "x"]) and not agrees(("y", "x"), ("x", "y"))
+    assert agrees("translucent", "translucent") and not agrees(1.0, 0.5)
+    assert not agrees({"a": 1}, {"a": 1})  # metadata is set, never compared

@@ -19,7 +19,7 @@ from qtpy.QtCore import QObject, QTimer
 
 from ..plan import Choices, LayerSnapshot, RenderPlan, make_plan, preview_choices
 from ..run import Failure, Outcome, result_layer
-from .worker import render_worker, stop
+from .worker import agrees, render_worker, stop
 
 #: Milliseconds without a change before the preview renders.
 DEBOUNCE_MS = 60
@@ -150,7 +150,8 @@ class Preview:
         else:
             layer.data = data
             for name in _UPDATED:
-                setattr(layer, name, kwargs[name])
+                if not agrees(getattr(layer, name), kwargs[name]):
+                    setattr(layer, name, kwargs[name])  # a transform costs napari an extent
         self.shown_generation = generation
         self.latencies.append(time.perf_counter() - requested_at)
 

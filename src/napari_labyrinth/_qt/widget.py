@@ -11,6 +11,7 @@ call so that it can be reproduced exactly.
 
 from __future__ import annotations
 
+import time
 import weakref
 from typing import Any
 
@@ -47,11 +48,13 @@ from .worker import add_result_layer, render_worker, stop
 
 __all__ = ["LabyrinthWidget"]
 
+#: Least seconds between two updates of the progress bar (but the last).
+PROGRESS_INTERVAL = 0.2
+#: The clock of those updates.
+_clock = time.monotonic
+
 
 class LabyrinthWidget(ClosesWithItsDock, QWidget):
-    #: Every widget alive: the Layers ▸ Filter commands find a viewer's widget here.
-    instances: weakref.WeakSet[LabyrinthWidget] = weakref.WeakSet()
-
     """Dock widget that renders an image layer with the labyrinthine tiling.
 
     Parameters
@@ -97,6 +100,14 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         The layer the last run added.
     """
 
+    #: Every widget alive: the Layers ▸ Filter commands find a viewer's widget here.
+    instances: weakref.WeakSet[LabyrinthWidget] = weakref.WeakSet()
+    #: Whether a run's progress also shows in napari's activity panel. Off: while any
+    #: progress is active napari animates an indicator in its status bar that repaints the
+    #: whole window about 30 times a second; under software OpenGL (Xvfb, remote
+    #: desktops) that takes a core from the run (a 2048² plane took twice as long).
+    activity_panel: bool = False
+
     def __init__(self, napari_viewer: Viewer) -> None:
         super().__init__()
         self.viewer = napari_viewer
@@ -141,6 +152,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self._cancel_reason = ""
         self._shown_plane: tuple[int, ...] | None = None
         self._closed = False
+        self._progress_shown = 0.0
         self.sweep_label = SweepLabel(self.viewer)
         self.preview = Preview(self.viewer, self.inputs.snapshot, self.choices, self._say, self)
         self.preview_toggle.changed.connect(self._on_preview_toggled)
@@ -365,7 +377,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             self.status.value = f"Not started: {exc}"
             return None
         self._watch_window()
-        worker = render_worker(plan)
+        worker = render_worker(plan, progress=self.activity_panel)
         worker.returned.connect(self._on_returned)
         worker.finished.connect(self._on_finished)
         worker.yielded.connect(self._on_progress)
@@ -377,6 +389,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self.cancel_button.enabled = True
         self.progress_bar.setRange(0, plan.total_steps)
         self.progress_bar.setValue(0)
+        self._progress_shown = _clock()
         self.progress_bar.setVisible(True)
         self.status.value = f"Rendering {plan.description} …"
         if start:
@@ -422,8 +435,13 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self.status.value = f"Added {plan.description} ({outcome.seconds:.1f} s)"
 
     def _on_progress(self, step: int) -> None:
-        if not self._closed:  # after close the Qt side of the widget may be gone
+        if self._closed:  # after close the Qt side of the widget may be gone
+            return
+        # each change repaints the window (tens of ms under software OpenGL): a few a second
+        now = _clock()
+        if step >= self.progress_bar.maximum() or now - self._progress_shown >= PROGRESS_INTERVAL:
             self.progress_bar.setValue(step)
+            self._progress_shown = now
 
     def _on_finished(self) -> None:
         cancelled = self._plan is not None and not self._outcome_received

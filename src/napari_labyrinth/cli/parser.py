@@ -21,6 +21,7 @@ def build_parser() -> argparse.ArgumentParser:
     """The parser of ``napari-labyrinth`` and its ``render`` and ``demo`` commands."""
     from .. import __version__
     from ..core.presets import DEFAULT_PRESET
+    from .render import SCHEDULER_TIMEOUT
 
     parser = argparse.ArgumentParser(
         prog=PROG,
@@ -70,6 +71,15 @@ def build_parser() -> argparse.ArgumentParser:
             "(tcp://host:8786), its scheduler file, or local:N to start N worker "
             "processes on this machine; workers need napari-labyrinth and must see the "
             "input and .zarr output paths"
+        ),
+    )
+    render.add_argument(
+        "--scheduler-timeout",
+        type=_seconds,
+        metavar="SECONDS",
+        help=(
+            "how long to wait for the --scheduler to answer before failing "
+            f"(default {SCHEDULER_TIMEOUT:g})"
         ),
     )
     render.add_argument(
@@ -281,6 +291,17 @@ def _scheduler_address(text: str) -> str | int:
     if not 1 <= workers <= 1024:
         raise argparse.ArgumentTypeError(f"local:N needs 1 <= N <= 1024, got {workers}")
     return workers
+
+
+def _seconds(text: str) -> float:
+    """A positive, finite number of seconds (up to a day)."""
+    try:
+        seconds = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not 0 < seconds <= 86400:
+        raise argparse.ArgumentTypeError(f"expected 0 < SECONDS <= 86400, got {text}")
+    return seconds
 
 
 def _assignment(text: str) -> tuple[str, str]:

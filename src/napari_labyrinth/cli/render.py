@@ -16,6 +16,7 @@ written back with the provenance record of the rendering
 from __future__ import annotations
 
 import argparse
+import asyncio
 import contextlib
 import dataclasses
 import functools
@@ -46,8 +47,8 @@ LOSSLESS_SUFFIX = ".png"
 #: written (a lazy rendering, computed as it is written).
 PROGRESS_LABELS = {"pass": "passes", "plane": "planes written"}
 
-#: Seconds to wait for a dask scheduler given by --scheduler.
-SCHEDULER_TIMEOUT = 10
+#: Seconds to wait for a dask scheduler given by --scheduler (--scheduler-timeout).
+SCHEDULER_TIMEOUT = 10.0
 
 
 @dataclasses.dataclass
@@ -70,12 +71,13 @@ def render_command(args: argparse.Namespace) -> int:
     _check_overwrites(jobs, overwrite=args.overwrite)
     if directory is not None:
         make_directory(directory)
-    with _scheduler(args.scheduler):
+    timeout = getattr(args, "scheduler_timeout", None) or SCHEDULER_TIMEOUT
+    with _scheduler(args.scheduler, timeout):
         return _render_jobs(jobs, args, options)
 
 
 @contextlib.contextmanager
-def _scheduler(address: str | int | None):
+def _scheduler(address: str | int | None, timeout: float = SCHEDULER_TIMEOUT):
     """Make a ``dask.distributed`` client the scheduler of dask for the run (None: local)."""
     if address is None:
         yield None
@@ -100,10 +102,10 @@ def _scheduler(address: str | int | None):
                 scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
             )
             client = Client(cluster)
-        elif os.path.isfile(address):
-            client = Client(scheduler_file=address, timeout=SCHEDULER_TIMEOUT)
         else:
-            client = Client(address, timeout=SCHEDULER_TIMEOUT)
+            client = Client(_answering_scheduler(address, timeout), timeout=timeout)
+    except Failed:
+        raise
     except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address, ...
         if cluster is not None:
             cluster.close()
@@ -117,10 +119,69 @@ def _scheduler(address: str | int | None):
             cluster.close()
 
 
+def _answering_scheduler(address: str, timeout: float) -> str:
+    """The address of a dask scheduler that answers within ``timeout`` seconds.
+
+    ``address`` is an address or a scheduler file. A socket that accepts and
+    never answers, an HTTP server or a closed port fail after ``timeout``
+    seconds, where ``distributed.Client`` alone can wait forever.
+
+    Raises
+    ------
+    Failed
+        One line: what was tried and why it failed.
+    """
+    if os.path.isfile(address):
+        address = _scheduler_file_address(address)
+    _note(f"connecting to the dask scheduler at {address} (timeout {timeout:g} s)")
+    try:
+        reply = asyncio.run(asyncio.wait_for(_identity(address, timeout), timeout))
+    except (TimeoutError, asyncio.TimeoutError):
+        raise Failed(
+            f"--scheduler: no dask scheduler answered at {address} within {timeout:g} s "
+            "(--scheduler-timeout sets the wait)"
+        ) from None
+    except Exception as exc:  # OSError, ValueError for a bad address, a garbled reply
+        raise Failed(f"--scheduler: cannot connect to {address}: {describe(exc, '')}") from None
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        raise Failed(f"--scheduler: {address} answered, but not as a dask scheduler")
+    return address
+
+
+async def _identity(address: str, timeout: float):
+    """The scheduler's answer to an ``identity`` request."""
+    from distributed.comm import connect
+
+    comm = await connect(address, timeout=timeout)
+    try:
+        await comm.write({"op": "identity", "reply": True})
+        return await comm.read()
+    finally:
+        comm.abort()
+
+
+def _scheduler_file_address(path: str) -> str:
+    """The address a dask scheduler file holds (JSON with an ``"address"``)."""
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as file:
+            content = json.load(file)
+    except (OSError, ValueError) as exc:
+        raise Failed(
+            f"--scheduler: {path} is not a dask scheduler file (JSON with an \"address\"): "
+            f"{describe(exc, path)}"
+        ) from None
+    address = content.get("address") if isinstance(content, dict) else None
+    if not isinstance(address, str) or not address:
+        raise Failed(
+            f"--scheduler: {path} is not a dask scheduler file: it has no \"address\""
+        )
+    return address
+
+
 def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, Any]) -> int:
     from tqdm import tqdm
-
-    from ..lazy import ComputeError
 
     show = _isatty(sys.stderr)
     rendered: list[Path] = []
@@ -153,18 +214,9 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
                 if job.error is not None:
                     raise _FileError(job.error)
                 _render_one(job, args, options, progress if show else None)
-            except (
-                _FileError,
-                OSError,
-                ValueError,
-                TypeError,
-                MemoryError,
-                ComputeError,
-            ) as exc:
+            except Exception as exc:  # noqa: BLE001 - one file's failure never stops a batch
                 failed.append(job.input)
-                tqdm.write(
-                    f"{PROG}: error: {job.input}: {describe(exc, job.input)}", file=sys.stderr
-                )
+                tqdm.write(f"{PROG}: error: {job.input}: {_failure(exc, job)}", file=sys.stderr)
             else:
                 rendered.append(job.output)
                 tqdm.write(str(job.output), file=sys.stdout)
@@ -174,6 +226,15 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
         files_bar.close()
     _summary(len(rendered), len(jobs), failed)
     return EXIT_FAILED if failed else EXIT_OK
+
+
+def _failure(exc: Exception, job: _Job) -> str:
+    """One line for a file that failed; errors nobody foresaw also name their type."""
+    from ..lazy import ComputeError
+
+    text = describe(exc, job.input)
+    foreseen = (_FileError, OSError, ValueError, TypeError, MemoryError, ComputeError)
+    return text if isinstance(exc, foreseen) else f"{type(exc).__name__}: {text}"
 
 
 def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
@@ -327,10 +388,9 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             f"{'x'.join(map(str, planes))} planes of {rows}x{columns} pixels; "
             "--channel-axis -1 reads the last axis as RGB(A)"
         )
-    image, alpha = split_alpha(image, metadata, args.channel_axis)
-    if alpha is not None:
-        channel_axis = None
     kwargs = dict(options, channel_axis=channel_axis)
+    if metadata.grey_alpha and channel_axis == -1:
+        kwargs["alpha"] = True  # the file says grey + alpha: alpha is kept, never rendered
     mode = "stack" if args.stack else "sweep" if "parameter" in options else "single"
     chunked = is_lazy(image)
     try:
@@ -358,18 +418,13 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             elif progress is not None:
                 progress(event.done, event.total)
         record = provenance_record(job.input, image, mode, kwargs, limits)
-        if alpha is not None:
-            result = with_alpha(result, alpha)
-            record[ALPHA_KEY] = ALPHA_LAST
-            record["input"]["shape"] = list(result.shape[-image.ndim - 1 :])
-            channel_axis = -1
         extra = 0 if mode == "single" else 1
         job.output.parent.mkdir(parents=True, exist_ok=True)
         write_array(
             job.output,
             result,
             overwrite=args.overwrite,
-            plane_axes=plane_axes(image.ndim + (alpha is not None), channel_axis, extra),
+            plane_axes=plane_axes(image.ndim, channel_axis, extra),
             progress=functools.partial(progress, unit="plane") if chunked and progress else None,
             metadata=metadata.for_output("Q" if extra else None, record),
         )
@@ -389,28 +444,6 @@ def _choose_auto_threshold(job: _Job, image, kwargs: dict[str, Any]) -> None:
     window = window_for(image, **options)
     kwargs["variance_threshold"] = window.best
     _note(f"{job.input}: variance threshold auto: {window.summary()}")
-
-
-#: Record key and value of an input whose last channel (grey, alpha) is alpha: the
-#: recorded call renders the grey channel, the alpha channel is put back unchanged.
-ALPHA_KEY, ALPHA_LAST = "alpha", "the input's last channel, kept unchanged"
-
-
-def split_alpha(image, metadata, given):
-    """A grey + alpha image (the file says so) as its grey plane(s) and its alpha, else
-    ``(image, None)``. The API renders alpha only of RGBA images; a grey + alpha PNG
-    would otherwise have its alpha rendered as a plane."""
-    if not metadata.grey_alpha or given is not None or image.ndim < 3 or image.shape[-1] != 2:
-        return image, None
-    return image[..., 0], image[..., 1]
-
-
-def with_alpha(result, alpha):
-    """The rendering with the alpha channel put back last (along every leading axis)."""
-    import numpy as np
-
-    result = np.asarray(result)
-    return np.stack([result, np.broadcast_to(alpha, result.shape)], axis=-1)
 
 
 def input_channel_axis(metadata, given: int | str | None) -> int | None:
@@ -442,6 +475,7 @@ def provenance_record(
         tone_limits=tone_limits,
         channel_axis=kwargs.get("channel_axis"),
         colour=kwargs.get("colour"),
+        alpha=kwargs.get("alpha"),
         sweep=sweep,
     )
     source = input_record(path, image.shape, image.dtype, file_checksum(path))

@@ -17,7 +17,6 @@ def reproduce_command(args: argparse.Namespace) -> int:
     from ..io import open_image, read_image, read_provenance
     from ..lazy import computing, is_lazy
     from ..provenance import file_checksum, reproduce_call
-    from .render import ALPHA_KEY, ALPHA_LAST, with_alpha
 
     output = Path(args.output)
     try:
@@ -35,17 +34,12 @@ def reproduce_command(args: argparse.Namespace) -> int:
     mode, arguments = reproduce_call(record)
     try:
         image = open_image(path, lazy=None, channel_axis=arguments.get("channel_axis"))
-        alpha = None
-        if record.get(ALPHA_KEY) == ALPHA_LAST:
-            image, alpha = image[..., :-1].squeeze(-1), image[..., -1]
         for event in api.labyrinth_steps(image, mode, **arguments):
             if isinstance(event, api.Result):
                 again = event.image
         if is_lazy(again):
             with computing():
                 again = again.compute()
-        if alpha is not None:
-            again = with_alpha(again, alpha)
         written = read_image(output)
     except (OSError, ValueError, TypeError) as exc:
         raise Failed(f"{output}: {describe(exc, output)}") from None

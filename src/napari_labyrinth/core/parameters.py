@@ -30,8 +30,10 @@ __all__ = [
     "FLOAT_DECIMALS",
     "PARAMETERS",
     "PARAMETER_NAMES",
+    "PLANE_OFFSET",
     "SEED",
     "SWEEPABLE",
+    "WORKERS",
     "LabyrinthParameters",
     "Parameter",
     "equal_tone_ranges",
@@ -85,9 +87,10 @@ class Parameter:
         The paper's equation it belongs to (``"Eq. 4"``), or its section.
     doc : str
         One line: what it means.
-    low, high : int or float or None
-        Inclusive bounds of a number (of the count, for ``tone_ranges``);
-        None: unbounded (floats must still be finite).
+    low, high : int or float
+        Inclusive bounds of a number (of the count, for ``tone_ranges``):
+        every number has both, so that no value can reach an allocation,
+        the kernel's integer types or a compilation unchecked.
     choices : tuple of str, optional
         The options of a ``"choice"``.
     reading : bool
@@ -136,10 +139,9 @@ class Parameter:
         if self.kind == "bool":
             return "True or False"
         if self.low is not None and self.high is not None:
-            high = "2**64 - 1" if self.kind == "seed" else f"{self.high:g}"
-            return f"between {self.low:g} and {high}"
+            return f"between {_bound_text(self.low)} and {_bound_text(self.high)}"
         if self.low is not None:
-            return f">= {self.low:g}"
+            return f">= {_bound_text(self.low)}"
         return "any value"
 
     @property
@@ -204,6 +206,22 @@ class Parameter:
         }.get(self.kind) or " or ".join(self.choices)
 
 
+def _bound_text(value: float) -> str:
+    """A bound in words: ``2**63 - 1`` for the largest 64-bit integer, ``1e+06``, ``0.5``."""
+    if value == _INT64_MAX:
+        return "2**63 - 1"
+    return f"{value:g}"
+
+
+#: Largest signed 64-bit integer: the kernel's plane index and the widget's spin
+#: boxes hold no more, so the seed and the plane offset stop there.
+_INT64_MAX = 2**63 - 1
+
+#: Largest value of a threshold: far beyond any useful one (Eq. 2 and 4 compare
+#: ratios of tones on the 0-255 scale), small enough for every form and float32.
+_THRESHOLD_MAX = 1e6
+
+
 def _entry(**spec: Any) -> Any:
     """A dataclass field carrying its table entry (the name is filled in below)."""
     return dataclasses.field(metadata={"parameter": Parameter(name="", **spec)})
@@ -219,6 +237,7 @@ class LabyrinthParameters:
         kind="float",
         paper=0.12,
         low=0.0,
+        high=_THRESHOLD_MAX,
         label="mean threshold t",
         symbol="t",
         equation="Eq. 2",
@@ -228,6 +247,7 @@ class LabyrinthParameters:
         kind="float",
         paper=0.50,
         low=0.0,
+        high=_THRESHOLD_MAX,
         label="variance threshold V",
         symbol="V",
         equation="Eq. 4",
@@ -373,13 +393,43 @@ SEED = Parameter(
     kind="seed",
     paper=None,
     low=0,
-    high=2**64 - 1,
+    high=_INT64_MAX,
     label="seed",
     equation="Eq. 3",
     doc=(
         "Seed of the random draws R: the result is a pure function of the image, the "
         "parameters and the seed"
     ),
+)
+
+#: The random stream index of an image's first plane in a larger stack it was taken
+#: from (a rendering option, beside the parameters); with the planes after it, it must
+#: stay within the kernel's 64-bit plane index.
+PLANE_OFFSET = Parameter(
+    name="plane_offset",
+    kind="int",
+    paper=0,
+    low=0,
+    high=_INT64_MAX,
+    label="plane offset",
+    equation="Eq. 3",
+    doc=(
+        "Flat index of the image's first plane in a larger stack: plane k draws the "
+        "random stream of plane plane_offset + k"
+    ),
+)
+
+#: Threads of a run (a rendering option): at least one, at most a generous multiple
+#: of any machine's cores (each thread holds a plane's work arrays).
+WORKERS = Parameter(
+    name="workers",
+    kind="int",
+    paper=None,
+    low=1,
+    high=1024,
+    label="workers",
+    equation="Sec. 2",
+    doc="Threads that render planes (or a checkerboard plane's bands) at once",
 )
 
 #: What a sweep may vary: every parameter that has a value in one word, and the seed.
@@ -463,6 +513,7 @@ def _float(parameter: Parameter, value: Any) -> float:
             f"{parameter.name}={AUTO!r} is chosen from the image: pass the image to "
             "labyrinth() or find_window() rather than building parameters without it"
         )
+    value = _scalar(value)
     if not _is_real(value):
         also = f" or {AUTO!r}" if parameter.automatic else ""
         raise TypeError(f"{parameter.name} must be a real number{also}, got {value!r}")
@@ -478,6 +529,7 @@ def _float(parameter: Parameter, value: Any) -> float:
 
 
 def _integer(parameter: Parameter, value: Any) -> int:
+    value = _scalar(value)
     if not _is_integer(value):
         raise TypeError(f"{parameter.name} must be an integer, got {value!r}")
     value = int(value)
@@ -509,14 +561,33 @@ def _tone(name: str, value: Any) -> float:
     return value
 
 
+def _is_sequence(value: Any) -> bool:
+    """Whether ``value`` is a sequence of values (a 0-d array, a string or a number is not)."""
+    if isinstance(value, (str, bytes)):
+        return False
+    try:
+        len(value)
+    except TypeError:  # numbers, 0-d arrays
+        return False
+    return True
+
+
+def _scalar(value: Any) -> Any:
+    """The number a 0-d array holds; any other value as it is."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        return value[()]
+    return value
+
+
 def _tone_ranges(parameter: Parameter, value: Any) -> tuple[float, ...]:
+    value = _scalar(value)
     if _is_integer(value):
         if not parameter.low <= value <= parameter.high:
             raise ValueError(
                 f"tone_ranges as a count must be {parameter.bounds_text}, got {value}"
             )
         return equal_tone_ranges(int(value))
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+    if not _is_sequence(value):
         raise TypeError(
             f"tone_ranges must be a count of ranges or a sequence of limits, got {value!r}"
         )
@@ -531,7 +602,7 @@ def _tone_ranges(parameter: Parameter, value: Any) -> tuple[float, ...]:
 def _tones(value: Any, limits: tuple[float, ...]) -> tuple[tuple[float, float], ...]:
     if value is None:
         return tuple(zip(limits[:-1], limits[1:]))
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+    if not _is_sequence(value):
         raise TypeError(f"tones must be a sequence of (T_inf, T_sup) pairs, got {value!r}")
     if len(value) != len(limits) - 1:
         raise ValueError(
@@ -540,7 +611,7 @@ def _tones(value: Any, limits: tuple[float, ...]) -> tuple[tuple[float, float], 
         )
     pairs = []
     for pair in value:
-        if isinstance(pair, (str, bytes)) or not hasattr(pair, "__len__") or len(pair) != 2:
+        if not _is_sequence(pair) or len(pair) != 2:
             raise ValueError(f"tones must be (T_inf, T_sup) pairs, got {pair!r}")
         low, high = _tone("tones", pair[0]), _tone("tones", pair[1])
         if high < low:
