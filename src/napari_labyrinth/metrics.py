@@ -765,13 +765,17 @@ class Comparison:
         ...     if name == "labyrinth_cover":
         ...         break  # the other metrics are not computed
         """
+        return self._steps(self._rendering_maps(rendered))
+
+    def _rendering_maps(self, rendered) -> _Maps:
+        """The maps of ``rendered`` (checked, copied into an array of the pool)."""
         after_array = _plane(rendered, "rendered")
         _same_shape(self._maps.plane, after_array)
         plane = self._pool.take(after_array.shape, np.float64)
         np.copyto(plane, after_array, casting="unsafe")  # real dtypes: exact in float64
         after = _Maps(plane, self.workers, self._pool)
         after._taken.append(plane)
-        return self._steps(after)
+        return after
 
     def _steps(self, after: _Maps) -> Iterator[tuple[str, float]]:
         before = self._maps
@@ -792,12 +796,7 @@ class Comparison:
     def edge_enhancement(self, rendered) -> float:
         """:func:`edge_enhancement` of ``rendered`` alone (the value ``describe`` gives),
         without the work of the other metrics."""
-        after_array = _plane(rendered, "rendered")
-        _same_shape(self._maps.plane, after_array)
-        plane = self._pool.take(after_array.shape, np.float64)
-        np.copyto(plane, after_array, casting="unsafe")
-        after = _Maps(plane, self.workers, self._pool)
-        after._taken.append(plane)
+        after = self._rendering_maps(rendered)
         try:
             return _edge_enhancement(self._maps, after)
         finally:
