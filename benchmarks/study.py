@@ -263,10 +263,11 @@ def auto_summary(test_images, size: int) -> str:
         f"## The window of V against find_window ({size}², default preset, 4 passes)",
         "",
         "Full sweep: the whole image rendered at every V of `find_window`'s grid "
-        "(0.0025-0.32 in steps of √2); its window is the run of V around the best whose "
-        "edge enhancement is at least 90 % of the best. `find_window`: the same read on "
-        "its probe (6 crops of 128², full resolution). EE: edge enhancement of the whole "
-        "image.",
+        "(0.0025-0.32 in steps of √2, rounded to 4 decimals); its window is the run of V "
+        "around the best whose edge enhancement is at least 90 % of the best. "
+        "`find_window`: the same read on its probe (6 crops of 128², full resolution); "
+        "*open*: its window reaches the lowest (low) or highest (high) V probed, and may "
+        "go on beyond it. EE: edge enhancement of the whole image.",
         "",
         table.getvalue(),
         "## Dark regions: the default preset before and after its black tone range",
