@@ -161,6 +161,17 @@ def test_auto_in_the_api_renders_with_the_chosen_v(camera_window):
     )
 
 
+def test_auto_on_a_grey_and_alpha_image_probes_the_grey_channel_only(camera_window):
+    grey, _ = camera_window
+    image = np.stack([grey, np.full_like(grey, 200)], axis=-1)
+    found = find_window(image, channel_axis=-1, alpha=True)
+    assert {plane for plane, _, _ in found.crops} == {0}
+    assert found == find_window(grey)  # the alpha channel plays no part
+    rendered = labyrinth(image, channel_axis=-1, alpha=True, variance_threshold=AUTO)
+    np.testing.assert_array_equal(rendered[..., 0], labyrinth(grey, variance_threshold=found.best))
+    np.testing.assert_array_equal(rendered[..., 1], image[..., 1])
+
+
 def test_auto_is_a_value_of_the_table_not_of_a_parameter_set():
     parameter = PARAMETERS["variance_threshold"]
     assert parameter.automatic and parameter.parse(" Auto ") == AUTO

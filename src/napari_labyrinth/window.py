@@ -146,6 +146,7 @@ def find_window(
     preset: str = DEFAULT_PRESET,
     seed: int = 0,
     channel_axis: int | None = None,
+    alpha: bool | None = None,
     colour: str | None = None,
     tone_limits: tuple[float, float] | None = None,
     thresholds=None,
@@ -176,7 +177,7 @@ def find_window(
     seed : int, optional
         Seed of the random draws (Eq. 3) and of the choice of crops: the
         result is a pure function of the image, the parameters and the seed.
-    channel_axis, colour, tone_limits : optional
+    channel_axis, alpha, colour, tone_limits : optional
         As for :func:`napari_labyrinth.labyrinth`: the probe is taken on the
         tones the rendering would see.
     thresholds : sequence of float, optional
@@ -242,7 +243,7 @@ def find_window(
     workers = (os.cpu_count() or 1) if workers is None else _positive_int("workers", workers, 1)
     values = _thresholds(thresholds, base.variance_threshold)
 
-    planes, scale = _sampled_planes(image, channel_axis, colour, tone_limits, max_planes)
+    planes, scale = _sampled_planes(image, channel_axis, alpha, colour, tone_limits, max_planes)
     rng = np.random.default_rng(seed)
     where, size = _choose_crops(planes, scale, crops, crop_size, rng)
     originals = [
@@ -346,7 +347,7 @@ def _above(values: list[float], steps: int) -> list[float]:
     return sorted(v for v in above if v > top)
 
 
-def _sampled_planes(image, channel_axis, colour, tone_limits, max_planes):
+def _sampled_planes(image, channel_axis, alpha, colour, tone_limits, max_planes):
     """Up to ``max_planes`` evenly spaced planes of the image, and the map of their values
     to C-contiguous float32 tones (the whole image's tone scale).
 
@@ -355,7 +356,7 @@ def _sampled_planes(image, channel_axis, colour, tone_limits, max_planes):
     if is_lazy(image):
         image = _sampled_lazy(image, channel_axis, max_planes)
         channel_axis = None if channel_axis is None else -1
-    array, layout, scale, grey = _prepare(image, channel_axis, tone_limits, colour)
+    array, layout, scale, grey = _prepare(image, channel_axis, tone_limits, colour, alpha)
     if grey is not None:
         tones = grey.tones.reshape((-1,) + layout.plane_shape)
         return [tones[k] for k in _evenly(len(tones), max_planes)], np.ascontiguousarray
