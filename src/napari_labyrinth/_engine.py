@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import logging
 import math
 import queue
 import threading
@@ -31,6 +32,8 @@ DIAGNOSTICS_DTYPE = np.dtype([(name, np.int64) for name in DIAGNOSTIC_FIELDS])
 
 #: Bytes of a cache line: per-thread counters are padded to whole lines.
 _CACHE_LINE = 64
+
+_LOG = logging.getLogger("napari_labyrinth")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -193,14 +196,23 @@ def run_pass(
     counts: np.ndarray | None = None,
     has_nonfinite: bool | None = None,
     workers: int = 1,
+    tile: tuple[int, int] | None = None,
 ) -> np.ndarray:
     """Run one pass of the numba kernel on a float32 plane of 0-255 tones, in place.
 
     The low-level entry point (no tone mapping, no copies, no validation of
     ``tones``): ``tones`` must be a C-contiguous 2-D float32 array.
     ``counts``, if given, is an int64 array of ``len(DIAGNOSTIC_FIELDS)`` that
-    the pass increments. With ``scan="checkerboard"``, ``workers`` threads
-    share each colour's rows. Returns ``counts``.
+    the pass increments. Returns ``counts``.
+
+    With ``workers > 1`` a large plane runs on several threads: in the
+    paper's raster order as parallelogram tiles of ``tile = (rows,
+    diagonals)`` pixels (see :func:`exact_order_tiles`), bit for bit the
+    result of one thread; with ``scan="checkerboard"`` in bands of rows of
+    each colour. A raster plane of one band of tiles, or by default of fewer
+    than ``MIN_PARALLEL_PIXELS`` pixels, runs on one thread, as does an order
+    the tiles cannot reproduce (:func:`exact_order_refusal`; the
+    ``napari_labyrinth`` logger says so).
     """
     from .core._kernel import labyrinth_pass  # numba is imported on first use only
 
@@ -210,14 +222,142 @@ def run_pass(
         has_nonfinite = not np.isfinite(tones).all()
     arguments = (tones, *_kernel_arguments(parameters), np.uint64(seed), plane_index, pass_index)
     options = (*_kernel_options(parameters), has_nonfinite)
-    if parameters.scan != "checkerboard":
-        labyrinth_pass(*arguments, *options, counts)
+    if parameters.scan == "checkerboard":
+        _checkerboard_bands(labyrinth_pass, arguments, options, counts, tones.shape[0], workers)
         return counts
+    if workers > 1:
+        refusal = exact_order_refusal(parameters)
+        rows, diagonals = tile or default_tile(tones.shape, workers)
+        if refusal is not None:
+            _LOG.info("one thread for this plane: %s", refusal)
+        elif tones.shape[0] > rows and (tile is not None or tones.size >= MIN_PARALLEL_PIXELS):
+            _exact_order(labyrinth_pass, arguments, options, counts, rows, diagonals, workers)
+            return counts
+    labyrinth_pass(*arguments, *options, counts)
+    return counts
+
+
+#: Planes with fewer pixels run on one thread: the tiles would cost more than they gain.
+MIN_PARALLEL_PIXELS = 256 * 256
+
+
+def exact_order_refusal(parameters: LabyrinthParameters) -> str | None:
+    """Why the parallelogram tiles cannot reproduce the scan of ``parameters``; None if they can.
+
+    The tiles need every pixel to read no neighbour outside its 3 x 3
+    neighbourhood and, in that neighbourhood, the row above and the pixel to
+    its left updated, the rest not yet: the raster scan with the borders
+    ``"inside"``, ``"mirror"`` and ``"nearest"`` (each reads its 3 x 3
+    neighbourhood, mirrored or repeated onto itself).
+    """
+    if parameters.scan == "serpentine":
+        return "scan='serpentine' runs odd rows right to left, which the tiles cannot follow"
+    if parameters.scan != "raster":
+        return f"scan={parameters.scan!r} has its own order"
+    if parameters.border == "wrap":
+        return "border='wrap' makes the first rows and columns neighbours of the last ones"
+    return None
+
+
+def default_tile(shape: tuple[int, int], workers: int) -> tuple[int, int]:
+    """``(rows, diagonals)`` of the tiles of a plane: at least four bands of rows per worker."""
+    height, width = shape
+    rows = int(np.clip(height // (4 * workers), 16, 64))
+    return rows, 256
+
+
+def exact_order_tiles(shape: tuple[int, int], rows: int, diagonals: int) -> list[list[int]]:
+    """The parallelogram tiles of a plane, band by band of ``rows`` rows.
+
+    Tile j of band i holds the pixels with ``i * rows <= y < (i + 1) * rows``
+    and ``j * diagonals <= x + y < (j + 1) * diagonals``. In coordinates
+    (y, s = x + y) a pixel's neighbours that the raster scan updates before it
+    lie at (-1, -2), (-1, -1), (-1, 0) and (0, -1), those it updates after it
+    at (0, 1), (1, 0), (1, 1) and (1, 2). So a tile reads tiles (i - 1, j - 1),
+    (i - 1, j) and (i, j - 1) updated and tiles (i, j + 1), (i + 1, j) and
+    (i + 1, j + 1) not yet, and no other: tile (i, j) may run as soon as
+    tile (i - 1, j) (or the whole band above, past its last tile) and tile
+    (i, j - 1) are done, beside any other tile. Returns, for every band, the
+    indices j of its non-empty tiles.
+    """
+    height, width = shape
+    bands = []
+    for row_start in range(0, height, rows):
+        row_stop = min(height, row_start + rows)
+        bands.append(list(range(row_start // diagonals, (row_stop + width - 2) // diagonals + 1)))
+    return bands
+
+
+def _exact_order(labyrinth_pass, arguments, options, counts, rows, diagonals, workers) -> None:
+    """Run the tiles of ``exact_order_tiles`` on threads, each as soon as it may run.
+
+    Worker k runs bands k, k + workers, ... in order, each tile by tile; before
+    tile j of band i it sleeps (on a condition variable, never spinning) until
+    band i - 1 is done up to tile j. The kernel holds no GIL.
+    """
+    tones = arguments[0]
     height = tones.shape[0]
+    tiles = exact_order_tiles(tones.shape, rows, diagonals)
+    bands = len(tiles)
+    workers = min(workers, bands)
+    done = [0] * bands  # band i is done up to (not including) tile done[i]
+    changed = threading.Condition()
+    band_counts = padded_counts(workers)
+    failed: list[BaseException] = []
+
+    def work(worker):
+        try:
+            for band in range(worker, bands, workers):
+                row_start, row_stop = band * rows, min(height, (band + 1) * rows)
+                for j in tiles[band]:
+                    if band > 0:
+                        needed = min(j, tiles[band - 1][-1]) + 1
+                        with changed:
+                            while done[band - 1] < needed and not failed:
+                                changed.wait()
+                        if failed:
+                            return
+                    labyrinth_pass(
+                        *arguments, *options, band_counts[worker], -1, row_start, row_stop,
+                        j * diagonals, (j + 1) * diagonals,
+                    )  # fmt: skip
+                    with changed:
+                        done[band] = j + 1
+                        changed.notify_all()
+        except BaseException as error:  # noqa: BLE001 - raised in the caller's thread
+            with changed:
+                failed.append(error)
+                changed.notify_all()
+
+    threads = [
+        threading.Thread(target=work, args=(k,), name=f"napari-labyrinth-tiles-{k}")
+        for k in range(1, workers)
+    ]
+    for thread in threads:
+        thread.start()
+    work(0)
+    for thread in threads:
+        thread.join()
+    if failed:
+        raise failed[0]
+    counts += band_counts[:, : len(DIAGNOSTIC_FIELDS)].sum(axis=0)
+
+
+def padded_counts(rows: int) -> np.ndarray:
+    """Zeroed ``(rows, 8)`` int64 counts, each row a whole, aligned cache line.
+
+    Threads that write counts of their own never share a cache line.
+    """
+    stride = max(len(DIAGNOSTIC_FIELDS), _CACHE_LINE // 8)
+    raw = np.zeros(rows * stride + _CACHE_LINE // 8, dtype=np.int64)
+    offset = (-raw.ctypes.data % _CACHE_LINE) // 8
+    return raw[offset : offset + rows * stride].reshape(rows, stride)
+
+
+def _checkerboard_bands(labyrinth_pass, arguments, options, counts, height, workers) -> None:
+    """The four colours in turn, the rows of each split among ``workers`` threads."""
     bands = np.linspace(0, height, min(workers, max(1, height // 2)) + 1).astype(int)
-    # one cache line per band: neighbouring threads never write the same line
-    stride = max(len(DIAGNOSTIC_FIELDS), _CACHE_LINE // counts.itemsize)
-    band_counts = np.zeros((len(bands) - 1, stride), dtype=np.int64)
+    band_counts = padded_counts(len(bands) - 1)
     for colour in range(4):  # the pixels of one colour are independent of each other
         if len(bands) == 2:
             labyrinth_pass(*arguments, *options, band_counts[0], colour, 0, height)
@@ -231,7 +371,6 @@ def run_pass(
             ]:
                 future.result()
     counts += band_counts[:, : len(DIAGNOSTIC_FIELDS)].sum(axis=0)
-    return counts
 
 
 @functools.lru_cache(maxsize=64)
