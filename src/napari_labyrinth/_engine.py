@@ -25,7 +25,7 @@ import numpy as np
 from .core.codes import DIAGNOSTIC_FIELDS, OPTION_CODES, SKIPPED
 from .core.parameters import LabyrinthParameters
 from .core.planes import PlaneLayout
-from .core.tone_scale import ToneScale
+from .core.tone_scale import ToneScale, integer_plane_tones, write_changed_values
 
 #: dtype of the per-pass diagnostics: one count per field of ``DIAGNOSTIC_FIELDS``.
 DIAGNOSTICS_DTYPE = np.dtype([(name, np.int64) for name in DIAGNOSTIC_FIELDS])
@@ -95,9 +95,14 @@ def render(
 
     def passes_of(index):
         """Every pass over one plane, yielding after each; stops early once ``stop`` is set."""
-        initial = np.ascontiguousarray(scale.to_tones(source[index]))
-        has_nonfinite = image.dtype.kind == "f" and not np.isfinite(initial).all()
-        work = initial.copy()
+        values = source[index]
+        # integer planes: tones in one pass, and no copy of them kept (see _write_back)
+        work = integer_plane_tones(scale, values)
+        initial = None
+        if work is None:
+            initial = np.ascontiguousarray(scale.to_tones(values))
+            work = initial.copy()
+        has_nonfinite = image.dtype.kind == "f" and not np.isfinite(work).all()
         for pass_index in range(passes):
             if stop.is_set():
                 return
@@ -112,10 +117,10 @@ def render(
                 workers=workers if plane_workers == 1 else 1,
             )
             if record_passes:
-                write_changes(targets[pass_index][index], initial, work, scale)
+                _write_back(targets[pass_index][index], values, initial, work, scale)
             yield pass_index + 1
         if not record_passes and passes:
-            write_changes(targets[0][index], initial, work, scale)
+            _write_back(targets[0][index], values, initial, work, scale)
 
     flat = {index: int(np.ravel_multi_index(index, leading)) if index else 0 for index in planes}
     if plane_workers == 1:
@@ -394,6 +399,14 @@ def _kernel_options(parameters: LabyrinthParameters) -> tuple[Any, ...]:
     """The options' codes in the order of ``codes.OPTION_CODES``, then ``include_centre``."""
     codes = tuple(codes[getattr(parameters, name)] for name, codes in OPTION_CODES.items())
     return (*codes, parameters.include_centre)
+
+
+def _write_back(target, values, initial, work, scale) -> None:
+    """The changed tones' values into ``target``: fused for an integer plane (no ``initial``)."""
+    if initial is None:
+        write_changed_values(scale, target, values, work)
+    else:
+        write_changes(target, initial, work, scale)
 
 
 def write_changes(
