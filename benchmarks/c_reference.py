@@ -1,4 +1,4 @@
-"""The C reference of the kernel (``c_reference/labyrinth_pass.c``), built and loaded with ctypes.
+"""The C reference of the kernel (``c_reference.c``), built and loaded with ctypes.
 
 ``load()`` compiles the C file with the system compiler (``gcc -O3 -march=native
 -ffp-contract=off``: float64 in the kernel's order, no fused multiply-add) into
@@ -15,7 +15,7 @@ import subprocess
 
 import numpy as np
 
-SOURCE = pathlib.Path(__file__).parent / "c_reference" / "labyrinth_pass.c"
+SOURCE = pathlib.Path(__file__).with_suffix(".c")
 BUILD = pathlib.Path(__file__).parent / "build"
 FLAGS = ("-O3", "-march=native", "-ffp-contract=off", "-shared", "-fPIC")
 

@@ -238,7 +238,8 @@ def run_pass(
         elif tones.shape[0] > rows and (tile is not None or tones.size >= MIN_PARALLEL_PIXELS):
             _exact_order(labyrinth_pass, arguments, options, counts, rows, diagonals, workers)
             return counts
-    labyrinth_pass(*arguments, *options, counts)
+    # every call gives every argument: one compiled kernel serves all of them
+    labyrinth_pass(*arguments, *options, counts, -1, 0, -1, 0, -1)
     return counts
 
 
@@ -265,10 +266,16 @@ def exact_order_refusal(parameters: LabyrinthParameters) -> str | None:
 
 
 def default_tile(shape: tuple[int, int], workers: int) -> tuple[int, int]:
-    """``(rows, diagonals)`` of the tiles of a plane: at least four bands of rows per worker."""
+    """``(rows, diagonals)`` of the tiles of a plane for ``workers`` threads.
+
+    Enough bands (up to 16 per worker) and tiles per band (up to 2 per
+    worker) that the threads soon all run and seldom wait on each other, tiles
+    large enough that their cost is small (``benchmarks/bench_parallel.py
+    --sections tiles model`` measures both).
+    """
     height, width = shape
-    rows = int(np.clip(height // (4 * workers), 16, 64))
-    return rows, 256
+    rows = int(np.clip(height // (16 * workers), 16, 64))
+    return rows, int(np.clip(width // (2 * workers), 128, 512))
 
 
 def exact_order_tiles(shape: tuple[int, int], rows: int, diagonals: int) -> list[list[int]]:
@@ -365,13 +372,14 @@ def _checkerboard_bands(labyrinth_pass, arguments, options, counts, height, work
     band_counts = padded_counts(len(bands) - 1)
     for colour in range(4):  # the pixels of one colour are independent of each other
         if len(bands) == 2:
-            labyrinth_pass(*arguments, *options, band_counts[0], colour, 0, height)
+            labyrinth_pass(*arguments, *options, band_counts[0], colour, 0, height, 0, -1)
             continue
         with ThreadPoolExecutor(len(bands) - 1) as pool:
             for future in [
                 pool.submit(
-                    labyrinth_pass, *arguments, *options, band_counts[k], colour, start, stop
-                )
+                    labyrinth_pass, *arguments, *options, band_counts[k], colour, start, stop,
+                    0, -1,
+                )  # fmt: skip
                 for k, (start, stop) in enumerate(zip(bands[:-1], bands[1:]))
             ]:
                 future.result()

@@ -255,9 +255,9 @@ def _above_root_ratio(squared, mean, threshold):
 
 
 @njit(inline="always")
-def _kept_run(plane, y, x, x_stop, x_step, mean_threshold, variance_threshold, variance_first,
+def _kept_run(plane, y, x, x_stop, mean_threshold, variance_threshold, variance_first,
               variance_ratio, include_centre):  # fmt: skip
-    """The first of the interior pixels ``x, x + x_step, ... < x_stop`` of row y that
+    """The first of the interior pixels ``x, x + 1, ... < x_stop`` of row y that
     Eq. 2 does not keep as they are (with Eq. 4 first: that Eq. 4 or Eq. 2 does not keep).
 
     The same arithmetic as the full path of ``labyrinth_pass``, with N = 8 or 9
@@ -284,7 +284,7 @@ def _kept_run(plane, y, x, x_stop, x_step, mean_threshold, variance_threshold, v
                 return x
         if not _at_most_ratio(deviation, mean, mean_threshold):
             return x
-        x += x_step
+        x += 1
     return x
 
 
@@ -348,7 +348,7 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
         x_stop = width if diagonal_stop < 0 else min(width, diagonal_stop - y)
         # interior pixels that Eq. 2 keeps (Eq. 4 first: that keeps) run in a
         # tight loop of their own (_kept_run); the others take the full path
-        fast_row = interior_row and not reverse
+        fast_row = interior_row and not reverse and colour < 0
         fast_start, fast_stop = max(x_start, 1), min(x_stop, width - 1)
         not_kept = -1  # the pixel at which the last run stopped
         steps = (x_stop - x_start + x_step - 1) // x_step
@@ -361,27 +361,27 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
                 if variance_first:
                     if include_centre:
                         x_next = _kept_run(
-                            plane, y, x, fast_stop, x_step, mean_threshold, variance_threshold,
+                            plane, y, x, fast_stop, mean_threshold, variance_threshold,
                             True, variance_ratio, True,
                         )  # fmt: skip
                     else:
                         x_next = _kept_run(
-                            plane, y, x, fast_stop, x_step, mean_threshold, variance_threshold,
+                            plane, y, x, fast_stop, mean_threshold, variance_threshold,
                             True, variance_ratio, False,
                         )  # fmt: skip
                 elif include_centre:
                     x_next = _kept_run(
-                        plane, y, x, fast_stop, x_step, mean_threshold, variance_threshold,
+                        plane, y, x, fast_stop, mean_threshold, variance_threshold,
                         False, variance_ratio, True,
                     )  # fmt: skip
                 else:
                     x_next = _kept_run(
-                        plane, y, x, fast_stop, x_step, mean_threshold, variance_threshold,
+                        plane, y, x, fast_stop, mean_threshold, variance_threshold,
                         False, variance_ratio, False,
                     )  # fmt: skip
                 if x_next > x:
-                    kept += (x_next - x) // x_step
-                    step += (x_next - x) // x_step - 1
+                    kept += x_next - x
+                    step += x_next - x - 1
                     not_kept = x_next
                     continue
             g = np.float64(plane[y, x])
