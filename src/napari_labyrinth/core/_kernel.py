@@ -263,16 +263,37 @@ def _kept_run(plane, y, x, x_stop, mean_threshold, variance_threshold, variance_
     The same arithmetic as the full path of ``labyrinth_pass``, with N = 8 or 9
     known; the pixels before the one returned are kept (none changes).
     """
+    # the 3 x 3 window slides right: two of its columns are read once, before
+    above_left, above = np.float64(plane[y - 1, x - 1]), np.float64(plane[y - 1, x])
+    left, g = np.float64(plane[y, x - 1]), np.float64(plane[y, x])
+    below_left, below = np.float64(plane[y + 1, x - 1]), np.float64(plane[y + 1, x])
     while x < x_stop:
-        g = np.float64(plane[y, x])
-        neighbour_sum = _interior_sum(plane, y, x)
+        above_right = np.float64(plane[y - 1, x + 1])
+        right = np.float64(plane[y, x + 1])
+        below_right = np.float64(plane[y + 1, x + 1])
+        # Eq. 1 in the order of _interior_sum and _interior_squares (row-major)
+        neighbour_sum = above_left
+        neighbour_sum += above
+        neighbour_sum += above_right
+        neighbour_sum += left
+        neighbour_sum += right
+        neighbour_sum += below_left
+        neighbour_sum += below
+        neighbour_sum += below_right
         if include_centre:
             mean = (neighbour_sum + g) / 9
         else:  # the same float64 as a division by 8, a power of two
             mean = neighbour_sum * 0.125
         deviation = abs(g - mean)
         if variance_first:
-            squares = _interior_squares(plane, y, x, mean)
+            squares = (above_left - mean) * (above_left - mean)
+            squares += (above - mean) * (above - mean)
+            squares += (above_right - mean) * (above_right - mean)
+            squares += (left - mean) * (left - mean)
+            squares += (right - mean) * (right - mean)
+            squares += (below_left - mean) * (below_left - mean)
+            squares += (below - mean) * (below - mean)
+            squares += (below_right - mean) * (below_right - mean)
             if include_centre:
                 squares += (g - mean) * (g - mean)
                 variance = squares / 9
@@ -284,6 +305,9 @@ def _kept_run(plane, y, x, x_stop, mean_threshold, variance_threshold, variance_
                 return x
         if not _at_most_ratio(deviation, mean, mean_threshold):
             return x
+        above_left, above = above, above_right
+        left, g = g, right
+        below_left, below = below, below_right
         x += 1
     return x
 
