@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import heapq
 import logging
 import math
 import queue
@@ -303,44 +304,64 @@ def exact_order_tiles(shape: tuple[int, int], rows: int, diagonals: int) -> list
 def _exact_order(labyrinth_pass, arguments, options, counts, rows, diagonals, workers) -> None:
     """Run the tiles of ``exact_order_tiles`` on threads, each as soon as it may run.
 
-    Worker k runs bands k, k + workers, ... in order, each tile by tile; before
-    tile j of band i it sleeps (on a condition variable, never spinning) until
-    band i - 1 is done up to tile j. The kernel holds no GIL.
+    The tiles that may run wait in a queue, the upper band first; a free
+    thread takes the next one, runs it (the kernel holds no GIL), then queues
+    the tiles it freed: the next of its band and the waiting one of the band
+    below. A thread with nothing to take sleeps on a condition variable (never
+    spins), and a thread that the system holds back holds up only the tiles
+    that need its own: the others take the rest of the plane meanwhile.
     """
     tones = arguments[0]
     height = tones.shape[0]
     tiles = exact_order_tiles(tones.shape, rows, diagonals)
     bands = len(tiles)
     workers = min(workers, bands)
-    done = [0] * bands  # band i is done up to (not including) tile done[i]
+    position = [0] * bands  # the index in tiles[band] of the band's next tile
+    finished = [0] * bands  # the band is done up to (not including) tile j = finished[band]
+    waiting = [True] * bands  # neither queued nor running
+    ready: list[int] = []  # bands whose next tile may run (a heap: the upper band first)
+    remaining = [sum(map(len, tiles))]
     changed = threading.Condition()
     band_counts = padded_counts(workers)
     failed: list[BaseException] = []
 
+    def queue_if_ready(band):
+        """Queue ``band`` if its next tile may run (called holding ``changed``)."""
+        if band >= bands or not waiting[band] or position[band] == len(tiles[band]):
+            return
+        j = tiles[band][position[band]]
+        if band == 0 or finished[band - 1] >= min(j, tiles[band - 1][-1]) + 1:
+            waiting[band] = False
+            heapq.heappush(ready, band)
+
     def work(worker):
         try:
-            for band in range(worker, bands, workers):
-                row_start, row_stop = band * rows, min(height, (band + 1) * rows)
-                for j in tiles[band]:
-                    if band > 0:
-                        needed = min(j, tiles[band - 1][-1]) + 1
-                        with changed:
-                            while done[band - 1] < needed and not failed:
-                                changed.wait()
-                        if failed:
-                            return
-                    labyrinth_pass(
-                        *arguments, *options, band_counts[worker], -1, row_start, row_stop,
-                        j * diagonals, (j + 1) * diagonals,
-                    )  # fmt: skip
-                    with changed:
-                        done[band] = j + 1
-                        changed.notify_all()
+            while True:
+                with changed:
+                    while not ready and remaining[0] and not failed:
+                        changed.wait()
+                    if failed or not remaining[0]:
+                        return
+                    band = heapq.heappop(ready)
+                    j = tiles[band][position[band]]
+                labyrinth_pass(
+                    *arguments, *options, band_counts[worker], -1, band * rows,
+                    min(height, (band + 1) * rows), j * diagonals, (j + 1) * diagonals,
+                )  # fmt: skip
+                with changed:
+                    finished[band] = j + 1
+                    position[band] += 1
+                    remaining[0] -= 1
+                    waiting[band] = True
+                    queue_if_ready(band)
+                    queue_if_ready(band + 1)
+                    changed.notify_all()
         except BaseException as error:  # noqa: BLE001 - raised in the caller's thread
             with changed:
                 failed.append(error)
                 changed.notify_all()
 
+    queue_if_ready(0)
     threads = [
         threading.Thread(target=work, args=(k,), name=f"napari-labyrinth-tiles-{k}")
         for k in range(1, workers)
