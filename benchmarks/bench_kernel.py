@@ -1,4 +1,4 @@
-"""Speed of one plane on one thread: C reference, numba kernel, ``labyrinth()``. Prints, asserts nothing.
+"""One plane on one thread: C reference, numba kernel, ``labyrinth()``. Prints, asserts nothing.
 
 For each preset, dtype (uint8, uint16) and pass count (1, 4) on a camera image
 of ``--size``² pixels, three variants are timed *interleaved* (one run of each
@@ -127,7 +127,9 @@ def bench_variants(size, repeats, c):
 
                     def c_pass(work, parameters=p):
                         for pass_index in range(parameters.passes):
-                            c.run_pass(work, parameters, pass_index=pass_index, has_nonfinite=False)
+                            c.run_pass(
+                                work, parameters, pass_index=pass_index, has_nonfinite=False
+                            )
 
                     variants["C"] = (tones.copy, c_pass)
                 kernel(tones.copy())  # compile

@@ -290,7 +290,9 @@ def bench_model(sizes, repeats):
                 n_tiles = sum(map(len, tiles))
                 # the per-tile cost of the threads (waking, Python), from the 1-thread run
                 one, _ = timed(
-                    lambda: tiled_pass(tones.copy(), parameters, 1, tile), repeats, time.thread_time
+                    lambda: tiled_pass(tones.copy(), parameters, 1, tile),
+                    repeats,
+                    time.thread_time,
                 )
                 overhead = max(0.0, (one - sum(map(sum, best))) / n_tiles)
                 model = simulate(tiles, best, workers, overhead)
