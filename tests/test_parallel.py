@@ -270,3 +270,20 @@ def test_padded_counts_give_each_thread_whole_cache_lines():
     counts = padded_counts(5)
     assert counts.shape[0] == 5 and counts.strides[0] == 64
     assert counts.ctypes.data % 64 == 0 and not counts.any()
+
+
+def test_workers_left_over_by_the_planes_tile_each_plane(monkeypatch):
+    from napari_labyrinth import _engine
+
+    calls = []
+    real = _engine._exact_order
+    monkeypatch.setattr(
+        _engine, "_exact_order", lambda *args: calls.append(args[-1]) or real(*args)
+    )
+    plane = (textured_plane((280, 250), seed=6) * 200).astype(np.uint16)
+    stack = np.stack([plane, plane[::-1]])
+    one = labyrinth(stack, passes=1, workers=1, return_diagnostics=True)
+    four = labyrinth(stack, passes=1, workers=4, return_diagnostics=True)
+    assert calls == [2, 2]  # two planes at once, each on two threads
+    np.testing.assert_array_equal(four[0], one[0])
+    np.testing.assert_array_equal(four[1], one[1])

@@ -80,8 +80,9 @@ def render(
     """Render every plane of ``image``; yield ``(plane, pass_number, result)`` after each pass.
 
     With several planes and ``workers > 1`` planes run concurrently on
-    threads (the kernel holds no GIL); a single plane gives its workers to
-    the checkerboard bands of :func:`run_pass`. Returns (as the generator's
+    threads (the kernel holds no GIL); the workers left over (all of them
+    for a single plane) go to each plane's :func:`run_pass`: its exact-order
+    tiles or checkerboard bands. Returns (as the generator's
     value) the rendered image, or with ``record_passes`` the input followed by
     the image after every pass, and the diagnostics in the image's layout.
     """
@@ -115,7 +116,7 @@ def render(
                 pass_index=pass_index,
                 counts=counts[(pass_index,) + index],
                 has_nonfinite=has_nonfinite,
-                workers=workers if plane_workers == 1 else 1,
+                workers=max(1, workers // plane_workers),  # spare threads: tiles
             )
             if record_passes:
                 _write_back(targets[pass_index][index], values, initial, work, scale)
