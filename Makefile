@@ -5,13 +5,27 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test bench bench-speed bench-scale bench-widget bench-metrics study gallery screenshot install install-test system-packages clean
+.PHONY: demo test fuzz bench-hostile file-cases bench bench-speed bench-scale bench-widget bench-metrics bench-window study gallery screenshot install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
 
 test: $(VENV)/.installed-test system-packages
 	$(PY) -m pytest
+
+# The hostile-input property with 20,000 random examples (make test runs 2,000).
+FUZZ_EXAMPLES ?= 20000
+fuzz: $(VENV)/.installed-test
+	HOSTILE_EXAMPLES=$(FUZZ_EXAMPLES) HOSTILE_SEED=random $(PY) -m pytest tests/test_hostile_properties.py -q -p no:cacheprovider
+
+# The file cases: colour, axes and pixel sizes detected and kept, provenance, reproduce.
+file-cases: $(VENV)/.installed-test
+	$(PY) benchmarks/file_cases.py
+
+# Hostile cases by class, make fuzz's count and time, peak RSS on a declared-huge file, the
+# time to fail on a scheduler that never answers.
+bench-hostile: $(VENV)/.installed-test
+	$(PY) benchmarks/measure_hostile.py
 
 bench: $(VENV)/.installed
 	$(PY) benchmarks/bench_kernel.py
@@ -33,6 +47,10 @@ bench-metrics: $(VENV)/.installed-test
 # The widget in a real viewer under Xvfb: preview latency, stack time, cancel, event-loop gaps.
 bench-widget: $(VENV)/.installed-test system-packages
 	xvfb-run -a $(PY) benchmarks/bench_widget.py
+
+# find_window: its probe's window against the full sweep's on the study images, and its time.
+bench-window: $(VENV)/.installed
+	$(PY) benchmarks/bench_window.py
 
 # The study behind the presets (docs/study/) and the paper's figures (docs/gallery/).
 study: $(VENV)/.installed

@@ -9,10 +9,19 @@ rendering with ``napari_labyrinth.metrics``; writes
 - ``docs/study/window.md``: edge enhancement, cover and changed pixels against
   V for every image and reading, and the window of V where the walls follow
   the contours;
-- ``docs/study/sheet-<image>.png``: contact sheets (readings x V, 4 passes).
+- ``docs/study/sheet-<image>.png``: contact sheets (readings x V, 4 passes);
+- ``docs/study/auto.md``: for every image, the window of the default preset
+  from a full sweep against the V ``find_window`` chooses on its probe, and
+  the default preset before and after its black tone range (dark regions),
+  with the black-level alternatives measured beside it;
+- ``docs/study/sheet-dark-regions.png``: crops of the images with dark
+  regions, rendered by each of those alternatives.
+
+Metrics are taken on the 0-255 tones the kernel sees (for uint8 images, the
+values themselves).
 
 Run: ``python benchmarks/study.py [--out docs/study] [--quick]``. It prints a
-summary and takes a few minutes on two cores.
+summary and takes about ten minutes on two cores.
 
 Rows also carry a *tiling score*, ``labyrinth_cover * max(edge_enhancement, 0)``.
 """
@@ -59,7 +68,12 @@ SHEET_THRESHOLDS = (0.02, 0.03, 0.04, 0.05, 0.06, 0.08, 0.12, 0.50)
 
 
 def images(size: int = 256) -> dict[str, np.ndarray]:
-    """The study's uint8 test images, ``size`` x ``size``."""
+    """The study's test images, ``size`` x ``size``: uint8 but the 16-bit fluorescence plane.
+
+    The photographs are cropped (resized first when ``size`` exceeds what a
+    crop can give: only for timing); the synthetic images are drawn at
+    ``size``.
+    """
     from skimage import color, data, transform, util
 
     from napari_labyrinth import samples
@@ -68,6 +82,10 @@ def images(size: int = 256) -> dict[str, np.ndarray]:
         return util.img_as_ubyte(color.rgb2gray(image)) if image.ndim == 3 else image
 
     def crop(image, top, left):
+        if min(image.shape) < size + max(top, left):
+            factor = (size + max(top, left)) / min(image.shape)
+            shape = tuple(int(np.ceil(n * factor)) for n in image.shape)
+            image = util.img_as_ubyte(transform.resize(image, shape, anti_aliasing=False))
         return np.ascontiguousarray(image[top : top + size, left : left + size])
 
     retina = transform.resize(data.retina()[..., 1], (640, 640), anti_aliasing=True)
@@ -77,7 +95,17 @@ def images(size: int = 256) -> dict[str, np.ndarray]:
         "microscopy": crop(gray(data.immunohistochemistry()), 100, 100),
         "branches": crop(util.img_as_ubyte(retina), 160, 160),
         "liquid-crystal": util.img_as_ubyte(samples.nematic_schlieren((size, size), seed=0)),
+        "dark-field": samples.smectic_batonnets((size, size), seed=0),
+        "fluorescence-16bit": samples.fluorescence_stack((size, size), planes=3, seed=0)[2],
+        "bright-texture": samples.bright_fingerprint((size, size), seed=0),
     }
+
+
+def tones(image, values=None) -> np.ndarray:
+    """``values`` (default: the image) on the image's default 0-255 tone scale."""
+    from napari_labyrinth.core.tone_scale import resolve_tone_scale
+
+    return resolve_tone_scale(image, None).to_tones(image if values is None else values)
 
 
 def threshold_for(reading: dict, value: float) -> float:
@@ -99,8 +127,9 @@ def measure(task):
         **reading,
     )
     rows = []
+    before = tones(image)
     for passes in PASSES:
-        described = metrics.describe(image, stack[passes])
+        described = metrics.describe(before, tones(image, stack[passes]))
         described["changed"] = float(np.mean(stack[passes] != image))
         described["tiling_score"] = described["labyrinth_cover"] * max(
             described["edge_enhancement"], 0.0
@@ -129,7 +158,7 @@ def contact_sheet(image, path, scale=2, crop=128):
     window = (slice(top, top + crop), slice(top, top + crop))
     rows = []
     for reading in READINGS.values():
-        cells = [image[window]]
+        cells = [_display(image, image[window])]
         for value in SHEET_THRESHOLDS:
             rendered = labyrinth(
                 image,
@@ -138,7 +167,7 @@ def contact_sheet(image, path, scale=2, crop=128):
                 variance_threshold=threshold_for(reading, value),
                 **reading,
             )
-            cells.append(rendered[window])
+            cells.append(_display(image, rendered[window]))
         rows.append(cells)
     sheet = labelled_grid(
         rows,
@@ -147,6 +176,165 @@ def contact_sheet(image, path, scale=2, crop=128):
         scale=scale,
         title=f"{path.stem.removeprefix('sheet-')}: {SHEET_PASSES} passes, "
         "V on the sqrt(V/N)/M scale",
+    )
+    io.imsave(path, sheet, check_contrast=False)
+
+
+def _display(image, values) -> np.ndarray:
+    """uint8 tones of ``values`` on ``image``'s tone scale, for a contact sheet."""
+    return np.rint(tones(image, values)).astype(np.uint8)
+
+
+# -- the window of V and dark regions (docs/study/auto.md) ----------------------------------------
+
+#: Ways of keeping the walls on the edges where the local mean M is small,
+#: compared in auto.md: keyword arguments of ``labyrinth`` and a black level
+#: b (tones) added under the image by its tone limits (the image's darkest
+#: value maps to tone b instead of 0, which adds b to M in the ratios of
+#: Eq. 2 and 4 and shifts the draws with it).
+DARK_VARIANTS = {
+    "paper's ranges (before)": ({"tone_ranges": 3}, 0),
+    "black range (after, default)": ({}, 0),
+    "black level b=20": ({"tone_ranges": 3}, 20),
+    "black level b=40": ({"tone_ranges": 3}, 40),
+    "b=40 + black range [0, 50]": ({"tone_ranges": (0.0, 50.0, 118.3, 186.7, 255.0)}, 40),
+}
+
+#: Images of the dark-regions contact sheet.
+DARK_SHEET_IMAGES = ("dark-field", "fluorescence-16bit", "portrait", "liquid-crystal")
+
+
+def _dark_render(image, variant, **options):
+    """``labyrinth(image)`` with a variant of DARK_VARIANTS (default preset otherwise)."""
+    from napari_labyrinth import labyrinth
+    from napari_labyrinth.core.tone_scale import resolve_tone_scale
+
+    keywords, black = DARK_VARIANTS[variant]
+    scale = resolve_tone_scale(image, None)
+    low, high = scale.low, scale.high
+    limits = (low - black * (high - low) / (255.0 - black), high) if black else None
+    return labyrinth(image, tone_limits=limits, **keywords, **options)
+
+
+def dark_mask(image) -> np.ndarray:
+    """Flat near-black pixels: local mean under 20 tones and a weak gradient."""
+    from scipy import ndimage
+
+    t = tones(image).astype(np.float64)
+    flat = ndimage.gaussian_gradient_magnitude(t, 1.5) < 2.0
+    return (ndimage.uniform_filter(t, 9) < 20.0) & flat
+
+
+def dark_rows(test_images, value: float = 0.04) -> list[dict]:
+    """Edge enhancement, cover and the RMS change of flat dark pixels, per image and variant."""
+    from napari_labyrinth import metrics
+
+    rows = []
+    for name, image in test_images.items():
+        before, mask = tones(image), dark_mask(image)
+        for variant in DARK_VARIANTS:
+            after = tones(image, _dark_render(image, variant, variance_threshold=value))
+            described = metrics.describe(before, after)
+            change = (after - before)[mask]
+            rows.append(
+                dict(
+                    image=name,
+                    variant=variant,
+                    edge_enhancement=described["edge_enhancement"],
+                    labyrinth_cover=described["labyrinth_cover"],
+                    dark_fraction=float(mask.mean()),
+                    dark_rms=float(np.sqrt(np.mean(change**2))) if change.size else math.nan,
+                )
+            )
+    return rows
+
+
+def auto_summary(test_images, size: int) -> str:
+    """auto.md: the window against find_window's V, and the dark-regions comparison."""
+    import io as text_io
+
+    from bench_window import compare
+
+    from napari_labyrinth import find_window
+
+    table = text_io.StringIO()
+    compare(test_images, out=table)
+    lines = [
+        f"## The window of V against find_window ({size}², default preset, 4 passes)",
+        "",
+        "Full sweep: the whole image rendered at every V of `find_window`'s grid "
+        "(0.0025-0.32 in steps of √2); its window is the run of V around the best whose "
+        "edge enhancement is at least 90 % of the best. `find_window`: the same read on "
+        "its probe (6 crops of 128², full resolution). EE: edge enhancement of the whole "
+        "image.",
+        "",
+        table.getvalue(),
+        "## Dark regions: the default preset before and after its black tone range",
+        "",
+        "V = 0.04 and V chosen by `find_window` for each variant. *dark RMS*: RMS "
+        "change (tones) of the flat near-black pixels (local mean < 20 tones, weak "
+        "gradient; their fraction in brackets): the grain or maze drawn where there is "
+        "no edge.",
+        "",
+    ]
+    lines += [
+        "| image | variant | EE | cover | dark RMS | auto V | EE at auto V | cover at auto V |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    fixed = dark_rows(test_images)
+    for row in fixed:
+        image = test_images[row["image"]]
+        keywords, black = DARK_VARIANTS[row["variant"]]
+        limits = None
+        if black:
+            scale_low, scale_high = _limits(image)
+            span = scale_high - scale_low
+            limits = (scale_low - black * span / (255.0 - black), scale_high)
+        chosen = find_window(image, tone_limits=limits, **keywords).best
+        auto = _described(image, row["variant"], chosen)
+        dark = f"{row['dark_rms']:.1f} ({row['dark_fraction']:.2f})"
+        lines.append(
+            f"| {row['image']} | {row['variant']} | {row['edge_enhancement']:.3f} | "
+            f"{row['labyrinth_cover']:.3f} | {dark} | {chosen:.4g} | "
+            f"{auto['edge_enhancement']:.3f} | {auto['labyrinth_cover']:.3f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _limits(image):
+    from napari_labyrinth.core.tone_scale import resolve_tone_scale
+
+    scale = resolve_tone_scale(image, None)
+    return scale.low, scale.high
+
+
+def _described(image, variant, value):
+    from napari_labyrinth import metrics
+
+    rendered = _dark_render(image, variant, variance_threshold=value)
+    return metrics.describe(tones(image), tones(image, rendered))
+
+
+def dark_sheet(test_images, path, scale=3, crop=96):
+    """DARK_SHEET_IMAGES (rows) x DARK_VARIANTS (columns), V = 0.04, a crop upscaled."""
+    from figures import labelled_grid
+    from skimage import io
+
+    rows = []
+    for name in DARK_SHEET_IMAGES:
+        image = test_images[name]
+        top = (image.shape[0] - crop) // 2
+        window = (slice(top, top + crop), slice(top, top + crop))
+        cells = [_display(image, image[window])]
+        for variant in DARK_VARIANTS:
+            cells.append(_display(image, _dark_render(image, variant)[window]))
+        rows.append(cells)
+    sheet = labelled_grid(
+        rows,
+        column_labels=["input"] + [v.split(" (")[0] for v in DARK_VARIANTS],
+        row_labels=list(DARK_SHEET_IMAGES),
+        scale=scale,
+        title="dark regions: default preset (V = 0.04, 4 passes) with each variant",
     )
     io.imsave(path, sheet, check_contrast=False)
 
@@ -238,9 +426,14 @@ def main(argv=None):
     (out / "window.md").write_text(summary)
     print(summary)
 
+    auto = auto_summary(test_images, test_images["portrait"].shape[0])
+    (out / "auto.md").write_text(auto)
+    print(auto)
+
     if not args.quick:
         for name, image in test_images.items():
             contact_sheet(image, out / f"sheet-{name}.png")
+        dark_sheet(test_images, out / "sheet-dark-regions.png")
     print(f"wrote {out}", file=sys.stderr)
 
 

@@ -210,3 +210,165 @@ def test_input_array_is_not_modified(tmp_path):
     write_image(tmp_path / "a.png", array)
     write_image(tmp_path / "a.tif", array)
     np.testing.assert_array_equal(array, copy)
+
+
+# -- metadata: colour, axes, pixel sizes, provenance ----------------------------------------------
+
+RECORD = {
+    "schema": "napari-labyrinth/provenance/1",
+    "version": "0.1.0",
+    "mode": "single",
+    "function": "labyrinth",
+    "arguments": {"preset": "labyrinth", "seed": 3, "tone_limits": [0.1, 1 / 3]},
+    "input": {"name": "in.tif", "sha256": "ab", "shape": [4, 5], "dtype": "uint8"},
+}
+
+
+HALF_MICRON = {"X": (0.5, "micrometer"), "Y": (0.5, "micrometer")}
+
+
+def _write_case(path, case):
+    """Write one file case of ``test_metadata_of_each_file_case``."""
+    import imageio.v3 as iio
+    import tifffile
+    import zarr
+
+    rng = np.random.default_rng(1)
+    grey = rng.integers(0, 256, (12, 17), dtype=np.uint8)
+    colour = {2: "LA", 3: "RGB", 4: "RGBA"}
+    if case.startswith("png-"):
+        channels = int(case[4:])
+        data = grey if channels == 1 else rng.integers(0, 256, (12, 17, channels), np.uint8)
+        iio.imwrite(path, data, plugin="pillow", mode=colour.get(channels, "L"))
+    elif case == "jpeg-rgb":
+        iio.imwrite(path, rng.integers(0, 256, (12, 17, 3), np.uint8))
+    elif case == "jpeg-grey":
+        iio.imwrite(path, grey)
+    elif case == "tiff-rgb":
+        tifffile.imwrite(path, rng.integers(0, 256, (12, 17, 3), np.uint8), photometric="rgb")
+    elif case == "tiff-grey-3":
+        data = rng.integers(0, 256, (12, 17, 3), np.uint8)
+        tifffile.imwrite(path, data, photometric="minisblack")
+    elif case == "tiff-16-stack":
+        data = rng.integers(0, 65536, (3, 12, 17), np.uint16)
+        tifffile.imwrite(path, data, photometric="minisblack")
+    elif case == "tiff-planar-rgb":
+        data = rng.integers(0, 65536, (3, 12, 17), np.uint16)
+        tifffile.imwrite(path, data, photometric="rgb", planarconfig="separate")
+    elif case == "ome-tiff":
+        tifffile.imwrite(
+            path,
+            rng.integers(0, 65536, (2, 3, 12, 17), np.uint16),
+            ome=True,
+            metadata={
+                "axes": "TZYX",
+                "PhysicalSizeX": 0.25,
+                "PhysicalSizeY": 0.25,
+                "PhysicalSizeZ": 1.5,
+                "PhysicalSizeZUnit": "nm",
+            },
+        )
+    elif case == "zarr-3":
+        zarr.create_array(path, shape=(12, 17, 3), dtype="uint8")
+    elif case in ("ome-zarr-0.4", "ome-zarr-0.5"):
+        group = zarr.open_group(path, mode="w", zarr_format=2 if case.endswith("4") else 3)
+        group.create_array("0", shape=(3, 12, 17), dtype="uint16")
+        axes = [{"name": "c", "type": "channel"}] + [
+            {"name": n, "type": "space", "unit": "micrometer"} for n in "yx"
+        ]
+        scale = [{"type": "scale", "scale": [1.0, 0.5, 0.5]}]
+        dataset = {"path": "0", "coordinateTransformations": scale}
+        multiscales = [{"axes": axes, "datasets": [dataset]}]
+        if case.endswith("4"):
+            group.attrs["multiscales"] = [dict(multiscales[0], version="0.4")]
+        else:
+            group.attrs["ome"] = {"version": "0.5", "multiscales": multiscales}
+
+
+@pytest.mark.parametrize(
+    "case,suffix,axes,channel_axis,sizes,ambiguous",
+    [
+        ("png-1", ".png", "YX", None, {}, False),
+        ("png-2", ".png", "YXS", -1, {}, False),
+        ("png-3", ".png", "YXS", -1, {}, False),
+        ("png-4", ".png", "YXS", -1, {}, False),
+        ("jpeg-grey", ".jpg", "YX", None, {}, False),
+        ("jpeg-rgb", ".jpg", "YXS", -1, {}, False),
+        ("tiff-rgb", ".tif", None, 2, {}, False),
+        ("tiff-grey-3", ".tif", None, None, {}, True),
+        ("tiff-16-stack", ".tif", None, None, {}, False),
+        ("tiff-planar-rgb", ".tif", None, 0, {}, False),
+        (
+            "ome-tiff",
+            ".ome.tif",
+            "TZYX",
+            None,
+            {"X": (0.25, "micrometer"), "Y": (0.25, "micrometer"), "Z": (1.5, "nanometer")},
+            False,
+        ),
+        ("zarr-3", ".zarr", None, None, {}, True),
+        ("ome-zarr-0.4", ".zarr", "CYX", None, HALF_MICRON, False),
+        ("ome-zarr-0.5", ".zarr", "CYX", None, HALF_MICRON, False),
+    ],
+)
+def test_metadata_of_each_file_case(tmp_path, case, suffix, axes, channel_axis, sizes, ambiguous):
+    path = tmp_path / f"image{suffix}"
+    _write_case(path, case)
+    metadata = file_io.read_metadata(path)
+    assert metadata.axes == axes
+    assert metadata.channel_axis == channel_axis
+    assert metadata.pixel_sizes == sizes
+    assert metadata.ambiguous is ambiguous
+    assert metadata.ome is case.startswith("ome")
+    assert metadata.provenance is None
+
+
+@pytest.mark.parametrize("name", ["out.tif", "out.ome.tif", "out.png", "out.jpg", "out.zarr"])
+def test_provenance_round_trip(tmp_path, name):
+    array = RNG.integers(0, 256, (4, 5), dtype=np.uint8)
+    ome = name.endswith(".ome.tif")
+    metadata = file_io.ImageMetadata(
+        axes="YX" if ome else None,
+        pixel_sizes={"X": (0.5, "micrometer")} if ome else {},
+        ome=ome,
+        provenance=RECORD,
+    )
+    file_io.write_array(tmp_path / name, array, metadata=metadata)
+    assert file_io.read_provenance(tmp_path / name) == RECORD  # floats exactly: 1/3
+    if not name.endswith(".jpg"):
+        np.testing.assert_array_equal(file_io.read_image(tmp_path / name), array)
+
+
+def test_a_file_without_a_record_says_so(tmp_path):
+    write_image(tmp_path / "plain.png", np.zeros((4, 5), np.uint8))
+    with pytest.raises(ImageFileError, match="no napari-labyrinth provenance record"):
+        file_io.read_provenance(tmp_path / "plain.png")
+
+
+@pytest.mark.parametrize("lazy", [False, True])
+@pytest.mark.parametrize("name", ["out.tif", "out.zarr"])
+def test_ome_axes_and_pixel_sizes_are_written_back(tmp_path, name, lazy):
+    import dask.array as da
+
+    source = tmp_path / "in.ome.tif"
+    _write_case(source, "ome-tiff")
+    metadata = file_io.read_metadata(source)
+    data = file_io.read_image(source)
+    stack = np.stack([data, data])  # a rendering with a leading axis (the passes of a stack)
+    array = da.from_array(stack, chunks=(1, 1, 1, 12, 17)) if lazy else stack
+    out = tmp_path / name
+    file_io.write_array(out, array, metadata=metadata.for_output("Q", RECORD))
+    back = file_io.read_metadata(out)
+    # OME-Zarr wants time first: a zarr store keeps the axes and sizes in its own attributes
+    assert back.axes == "QTZYX" and back.ome is name.endswith(".tif")
+    assert back.pixel_sizes == metadata.pixel_sizes
+    assert back.provenance == RECORD
+    np.testing.assert_array_equal(np.asarray(file_io.open_image(out, lazy=False)), stack)
+
+
+def test_axes_outside_ome_zarr_rules_give_a_plain_array_with_the_record(tmp_path):
+    metadata = file_io.ImageMetadata(axes="QQTZYX", ome=True, provenance=RECORD)
+    array = np.zeros((1, 1, 1, 2, 3, 4), np.uint8)
+    file_io.write_array(tmp_path / "out.zarr", array, metadata=metadata)
+    back = file_io.read_metadata(tmp_path / "out.zarr")
+    assert back.provenance == RECORD and not back.ome

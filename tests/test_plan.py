@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import napari_labyrinth
-from napari_labyrinth import api, metrics
+from napari_labyrinth import api, metrics, provenance
 from napari_labyrinth.core import presets
 from napari_labyrinth.plan import (
     CURRENT_PLANE,
@@ -281,6 +281,8 @@ def test_a_single_run_of_a_stack_renders_every_plane():
         "tone_limits": [0.0, 255.0],
         "sweep": None,
         "lazy": False,
+        "schema": provenance.SCHEMA,
+        "input": {"name": "cell", "sha256": None, "shape": [3, 16, 16], "dtype": "uint8"},
     }
 
 

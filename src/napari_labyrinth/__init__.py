@@ -13,6 +13,7 @@ from .api import (
 )
 from .core.parameters import DIAGNOSTIC_FIELDS, PARAMETERS, LabyrinthParameters
 from .core.presets import PRESETS
+from .window import Window, find_window
 
 try:
     __version__ = version("napari-labyrinth")
@@ -26,7 +27,9 @@ __all__ = [
     "LabyrinthParameters",
     "Progress",
     "Result",
+    "Window",
     "__version__",
+    "find_window",
     "labyrinth",
     "labyrinth_stack",
     "labyrinth_steps",

@@ -21,13 +21,16 @@ import numpy as np
 
 from . import _engine
 from ._engine import DIAGNOSTICS_DTYPE, Progress, run_pass
-from .core.colour import TONES, LuminancePlanes, resolve_colour
-from .core.parameters import SEED, LabyrinthParameters
+from .core.colour import TONES, LuminancePlanes
+from .core.parameters import SEED, WORKERS, LabyrinthParameters, is_auto, without_auto
 from .core.planes import (
     PlaneLayout,
     normalise_channel_axis,
+    resolve_alpha,
+    resolve_layout_colour,
     validate_plane_offset,
     validate_shape,
+    validate_stream_range,
     without_alpha,
 )
 from .core.presets import DEFAULT_PRESET, FIG3_FACTORS, resolve_parameters, resolve_sweep
@@ -59,6 +62,7 @@ RENDER_OPTIONS = {
     "preset": DEFAULT_PRESET,
     "seed": 0,
     "channel_axis": None,
+    "alpha": None,
     "colour": None,
     "tone_limits": None,
     "plane_offset": 0,
@@ -79,10 +83,14 @@ class Result:
     diagnostics : structured ndarray, list of them, or None
         The per-pass counts (see :func:`labyrinth`); one array per rendering
         of a sweep; None for a lazy result.
+    tone_limits : (float, float) or None
+        The values mapped to tones 0 and 255 (the default limits found, or
+        those given); None for a lazy result whose limits were not given.
     """
 
     image: Any
     diagnostics: Any
+    tone_limits: tuple[float, float] | None = None
 
 
 def labyrinth(
@@ -104,6 +112,7 @@ def labyrinth(
     include_centre: bool | None = None,
     scan: str | None = None,
     channel_axis: int | None = None,
+    alpha: bool | None = None,
     colour: str | None = None,
     tone_limits: tuple[float, float] | None = None,
     plane_offset: int = 0,
@@ -128,10 +137,12 @@ def labyrinth(
     Parameters
     ----------
     image : array_like or dask array
-        2-D or nD image of an integer type up to 32 bits or a float type.
-        Every axis before the last two (after removing ``channel_axis``) is
-        a set of independent planes (time, z, channels). A dask array gives
-        a lazy dask array (see Notes).
+        2-D or nD image of an integer type up to 32 bits or a float type,
+        in either byte order (a big-endian image is rendered as its
+        native-order equivalent and returned in its own dtype). Every axis
+        before the last two (after removing ``channel_axis``) is a set of
+        independent planes (time, z, channels). A dask array gives a lazy
+        dask array (see Notes).
     preset : str, optional
         Named parameter set (see ``napari_labyrinth.PRESETS``) that supplies
         every parameter not given explicitly. ``"paper"`` is the literal
@@ -140,12 +151,14 @@ def labyrinth(
         Number of passes (>= 0; 0 returns a copy). The paper's Fig. 4
         iterates the algorithm to enhance edges.
     seed : int, optional
-        Seed of the counter-based random generator (0 <= seed < 2**64). The
-        result is a pure function of the input, the parameters and the seed.
+        Seed of the counter-based random generator (0 <= seed <= 2**63 - 1).
+        The result is a pure function of the input, the parameters and the seed.
     mean_threshold : float, optional
         t of Eq. 2 (paper: 0.12).
-    variance_threshold : float, optional
-        V of Eq. 4 (paper: 0.50).
+    variance_threshold : float or "auto", optional
+        V of Eq. 4 (paper: 0.50). ``"auto"``: the best V of the window
+        :func:`napari_labyrinth.find_window` measures on a probe of this
+        image with the other parameters (one V for every plane).
     tone_ranges : int or sequence of float, optional
         The ranges of Eq. 3: a count of equal tone ranges from a low non-zero tone (10) to 255,
         or the limits ``L_inf^1 < L_sup^1 = L_inf^2 < ... <= 255`` themselves
@@ -180,6 +193,11 @@ def labyrinth(
     channel_axis : int, optional
         Axis of colour channels. With 4 channels the last one is alpha and
         is kept as it is. How the others are rendered is ``colour``.
+    alpha : bool, optional
+        Whether the last channel of ``channel_axis`` is alpha: kept as it is,
+        never rendered and left out of the tone limits. Default: only with 4
+        channels (RGBA); ``True`` for a grey + alpha image (2 channels).
+        ``False`` with 4 channels needs ``colour="channels"``.
     colour : {"luminance", "channels"}, optional
         How an image with ``channel_axis`` is rendered. ``"luminance"``
         (default for 3 or 4 channels, R, G, B first): the luminance
@@ -205,11 +223,13 @@ def labyrinth(
         Flat index of the image's first plane in a larger stack it was taken
         from: plane k draws the random stream of plane ``plane_offset + k``,
         so a part of a stack renders exactly as it does within the whole.
+        The last plane's stream index must stay <= 2**63 - 1.
     workers : int, optional
-        Threads to use (default: every core). Planes run concurrently; a
-        single large plane runs on them in tiles that keep the scan's exact
-        order (not with ``border="wrap"`` or ``scan="serpentine"``: see
-        ``docs/algorithm.md``). The result does not depend on it.
+        Threads to use (default: every core; 1 to 1024). Planes run
+        concurrently; a single large plane runs on them in tiles that keep the
+        scan's exact order (not with ``border="wrap"`` or
+        ``scan="serpentine"``: see ``docs/algorithm.md``). The result does not
+        depend on it.
     return_diagnostics : bool, optional
         Also return the per-pass counts (see Returns).
     progress : callable, optional
@@ -418,6 +438,8 @@ def labyrinth_steps(
         raise TypeError("parameter and values are for mode='sweep'")
     render = {name: options.pop(name, default) for name, default in RENDER_OPTIONS.items()}
     overrides = options
+    if is_auto(overrides.get("variance_threshold")):
+        overrides = dict(overrides, variance_threshold=_auto_threshold(image, render, overrides))
     if mode == "sweep":
         runs = resolve_sweep(
             render["preset"], overrides, render["seed"], parameter or "variance_threshold", values
@@ -434,6 +456,7 @@ def labyrinth_steps(
                 parameters,
                 seed,
                 channel_axis=render["channel_axis"],
+                alpha=render["alpha"],
                 colour=render["colour"],
                 tone_limits=render["tone_limits"],
                 plane_offset=plane_offset,
@@ -441,12 +464,19 @@ def labyrinth_steps(
             )
             for parameters, seed in runs
         ]
-        return iter([Result(_stack(lazy) if mode == "sweep" else lazy[0], None)])
+        limits = render["tone_limits"]
+        limits = None if limits is None else tuple(float(v) for v in limits)
+        return iter([Result(_stack(lazy) if mode == "sweep" else lazy[0], None, limits)])
     array, layout, scale, grey = _prepare(
-        image, render["channel_axis"], render["tone_limits"], render["colour"]
+        image, render["channel_axis"], render["tone_limits"], render["colour"], render["alpha"]
     )
+    validate_stream_range(plane_offset, layout.n_planes)
     layout = dataclasses.replace(layout, plane_offset=plane_offset)
-    return _steps(array, layout, scale, grey, runs, mode, workers)
+    steps = _steps(array, layout, scale, grey, runs, mode, workers)
+    given = getattr(image, "dtype", None)
+    if given is not None and np.dtype(given) != array.dtype:  # big-endian: back to its order
+        return _in_dtype(steps, np.dtype(given))
+    return steps
 
 
 def _steps(
@@ -486,10 +516,11 @@ def _steps(
                 break
             done += 1
             yield Progress(done, total, run, plane, pass_number, partial)
+    limits = (float(scale.low), float(scale.high))
     if mode == "sweep":
-        yield Result(_stack([image for image, _ in results]), [d for _, d in results])
+        yield Result(_stack([image for image, _ in results]), [d for _, d in results], limits)
     else:
-        yield Result(*results[0])
+        yield Result(*results[0], limits)
 
 
 def _render_luminance(
@@ -568,14 +599,19 @@ def _finish(
     raise AssertionError("labyrinth_steps ended without a result")  # pragma: no cover
 
 
+def _auto_threshold(image, render: dict[str, Any], overrides: dict[str, Any]) -> float:
+    """The V of ``variance_threshold="auto"``: the best of :func:`find_window`'s window."""
+    from .window import window_for  # window builds on this module
+
+    given = without_auto(overrides)
+    resolve_parameters(render["preset"], **given)  # bad parameters are named first
+    return window_for(image, **render, **given).best
+
+
 def _validate_workers(workers: Any) -> int:
     if workers is None:
-        return os.cpu_count() or 1
-    if not isinstance(workers, numbers.Integral) or isinstance(workers, bool):
-        raise TypeError(f"workers must be an integer or None, got {workers!r}")
-    if workers < 1:
-        raise ValueError(f"workers must be >= 1, got {workers}")
-    return int(workers)
+        return min(os.cpu_count() or 1, WORKERS.high)
+    return WORKERS.validate(workers)
 
 
 def _stack(arrays):
@@ -587,23 +623,64 @@ def _stack(arrays):
 
 
 def _prepare(
-    image: Any, channel_axis: Any, tone_limits: Any, colour: Any
+    image: Any, channel_axis: Any, tone_limits: Any, colour: Any, alpha: Any = None
 ) -> tuple[np.ndarray, PlaneLayout, ToneScale, LuminancePlanes | None]:
     """The image as an array, its planes, its tone scale (alpha excluded) and, rendered in
     its luminance, the luminance planes (the scale is then the luminance's)."""
     array = _validate_image(image)
-    layout = PlaneLayout(array.shape, normalise_channel_axis(channel_axis, array.ndim))
-    if resolve_colour(colour, array.shape, layout.channel_axis) == "luminance":
+    axis = normalise_channel_axis(channel_axis, array.ndim)
+    has_alpha = resolve_alpha(alpha, array.shape, axis)
+    layout = PlaneLayout(array.shape, axis, alpha=has_alpha)
+    if resolve_layout_colour(colour, array.shape, axis, alpha) == "luminance":
         grey = LuminancePlanes(layout.to_planes(array), tone_limits)
         return array, layout, grey.scale, grey
-    scale = resolve_tone_scale(without_alpha(array, layout.channel_axis), tone_limits)
+    scale = resolve_tone_scale(without_alpha(array, layout.channel_axis, has_alpha), tone_limits)
     return array, layout, scale, None
 
 
 def _validate_image(image: Any) -> np.ndarray:
+    """``image`` as an array of a supported dtype, in native byte order (a copy if not).
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``image`` and what was expected.
+    """
     if isinstance(image, (str, bytes)) or image is None:
         raise TypeError(f"image must be an array, got {type(image).__name__}")
-    array = np.asarray(image)
-    validate_dtype(array.dtype)
+    try:
+        array = np.asarray(image)
+    except (ValueError, TypeError) as exc:  # ragged nested lists, objects numpy refuses
+        raise ValueError(
+            f"image must be a rectangular array of numbers (nested lists of equal "
+            f"lengths); numpy cannot make one of it: {' '.join(str(exc).split())}"
+        ) from None
+    if array.dtype.kind == "O":
+        raise TypeError(
+            "image must be an array of numbers, got an array of Python objects (a ragged "
+            "nested list, or values of mixed types?)"
+        )
+    validate_dtype(native_dtype(array.dtype))
     validate_shape(array.shape)
+    if not array.dtype.isnative:
+        array = array.astype(native_dtype(array.dtype))
     return array
+
+
+def native_dtype(dtype: np.dtype) -> np.dtype:
+    """``dtype`` in the machine's byte order (``>u2`` -> ``uint16`` on a little-endian one)."""
+    dtype = np.dtype(dtype)
+    return dtype if dtype.isnative else dtype.newbyteorder("=")
+
+
+def _in_dtype(
+    steps: Iterator[Progress | Result], dtype: np.dtype
+) -> Generator[Progress | Result, None, None]:
+    """``steps`` with the result cast to ``dtype``: the input's own byte order."""
+    try:
+        for event in steps:
+            if isinstance(event, Result):
+                event = Result(event.image.astype(dtype), event.diagnostics)
+            yield event
+    finally:
+        steps.close()

@@ -10,16 +10,26 @@ and an error leaves nothing behind.
 Images larger than memory stay lazy (dask arrays, see ``open_image``) and
 are written block by block (``write_array``): a zarr store with one chunk
 per plane, or a TIFF file whose planes are written as they are computed.
+
+What a file says about its pixels is read by ``read_metadata`` (an
+:class:`ImageMetadata`): its colour axis (TIFF photometric RGB samples, the
+PNG/JPEG colour type), its axes and physical pixel sizes (OME-TIFF through
+tifffile's OME-XML support, OME-Zarr from its ``multiscales`` attributes)
+and the provenance record of a rendering. The writers take the same object
+and store it back: OME-XML (with the record as a ``CommentAnnotation``) or a
+JSON description in a TIFF file, an iTXt chunk in a PNG file, a comment in a
+JPEG file, attributes (OME-Zarr ``multiscales`` where the axes allow) in a
+zarr store.
 """
 
 from __future__ import annotations
 
 import contextlib
 import ctypes
+import dataclasses
 import errno
 import functools
 import os
-import secrets
 import shutil
 import threading
 from collections.abc import Callable, Sequence
@@ -27,6 +37,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from ._budget import declared_refusal, pillow_header, refusal
+from ._leftovers import remove_stale_temporaries, temporary_name
 
 #: Lower-case file suffix -> format name.
 FORMATS = {
@@ -38,6 +51,13 @@ FORMATS = {
     ".bmp": "BMP",
     ".zarr": "ZARR",
 }
+
+#: Formats that lose information when written: an output in one of them
+#: needs the caller's consent (the command line's ``--lossy``).
+LOSSY_FORMATS = ("JPEG",)
+
+#: Formats that hold no provenance record when written.
+FORMATS_WITHOUT_METADATA = ("BMP",)
 
 #: A TIFF file holding more than one plane is read lazily (a dask array read
 #: plane by plane) when its pixels take more bytes than this; smaller files
@@ -116,9 +136,11 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     kind = image_format(path)
     if kind == "ZARR":
         array = _open_zarr_array(path)
+        _refuse_unaffordable(path, refusal(array.shape, array.dtype))
         image = np.asarray(array[...])
         return _native(image)
     _require_file(path)
+    _refuse_unaffordable(path, declared_refusal(path, kind))
     try:
         if kind == "TIFF":
             import tifffile
@@ -139,7 +161,13 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     return image
 
 
-def write_image(path: str | os.PathLike, array: np.ndarray, *, overwrite: bool = False) -> Path:
+def write_image(
+    path: str | os.PathLike,
+    array: np.ndarray,
+    *,
+    overwrite: bool = False,
+    metadata: ImageMetadata | None = None,
+) -> Path:
     """Write an array to an image file, atomically.
 
     Parameters
@@ -155,6 +183,9 @@ def write_image(path: str | os.PathLike, array: np.ndarray, *, overwrite: bool =
     overwrite : bool, optional
         Replace an existing file. Without it an existing file is left as it
         is, even if it appears while this call runs.
+    metadata : ImageMetadata, optional
+        Axes, pixel sizes and provenance record to store with the pixels
+        (see :func:`read_metadata`); BMP files hold none.
 
     Returns
     -------
@@ -191,7 +222,7 @@ def write_image(path: str | os.PathLike, array: np.ndarray, *, overwrite: bool =
     temporary, handle = _create_temporary(directory, path.name)
     with _published(temporary, path, overwrite=overwrite):
         with handle:
-            _write(handle, kind, path.suffix.lower(), array)
+            _write(handle, kind, path.suffix.lower(), array, metadata)
             handle.flush()
             os.fsync(handle.fileno())
     return path
@@ -214,6 +245,12 @@ def _published(temporary: Path, path: Path, *, overwrite: bool):
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
         raise
+
+
+def _refuse_unaffordable(path: Path, reason: str | None) -> None:
+    """Refuse, before reading, an image that needs more memory than the run may use."""
+    if reason is not None:
+        raise ImageFileError(path, reason)
 
 
 def _require_file(path: Path) -> None:
@@ -261,8 +298,9 @@ def _check_storable(path: Path, kind: str, array: Any) -> None:
 def _create_temporary(directory: Path, name: str):
     """A new hidden file beside the destination, opened for binary writing."""
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+    remove_stale_temporaries(directory, name)
     while True:
-        temporary = directory / f".{name}.{secrets.token_hex(4)}.tmp"
+        temporary = directory / temporary_name(name)
         try:
             fd = os.open(temporary, flags, 0o666)  # the umask applies, unlike mkstemp
         except FileExistsError:
@@ -272,16 +310,29 @@ def _create_temporary(directory: Path, name: str):
         return temporary, open(temporary, "wb")
 
 
-def _write(handle, kind: str, suffix: str, array: np.ndarray) -> None:
+def _write(
+    handle, kind: str, suffix: str, array: np.ndarray, metadata: ImageMetadata | None
+) -> None:
     if kind == "TIFF":
         import tifffile
 
-        rgb = array.ndim >= 3 and array.shape[-1] in (3, 4) and array.dtype.kind in "uif"
-        tifffile.imwrite(handle, array, photometric="rgb" if rgb else "minisblack")
+        tifffile.imwrite(handle, array, **_tiff_options(array.shape, array.dtype, metadata))
         return
     import imageio.v3 as iio
 
     options = {"quality": 95} if kind == "JPEG" else {}
+    record = metadata.provenance if metadata is not None else None
+    if record is not None and kind == "PNG":
+        from PIL.PngImagePlugin import PngInfo
+
+        from .provenance import KEY, to_json
+
+        options["pnginfo"] = PngInfo()
+        options["pnginfo"].add_itxt(KEY, to_json(record))
+    elif record is not None and kind == "JPEG":
+        from .provenance import to_json
+
+        options["comment"] = to_json(record).encode()
     iio.imwrite(handle, np.ascontiguousarray(array), plugin="pillow", extension=suffix, **options)
 
 
@@ -360,6 +411,7 @@ def open_image(
     if kind == "ZARR":
         array = _open_zarr_array(path)
         if lazy is False:
+            _refuse_unaffordable(path, refusal(array.shape, array.dtype))
             return _native(np.asarray(array[...]))
         import dask.array as da
 
@@ -375,7 +427,8 @@ def open_image(
     if 0 in shape:
         raise ImageFileError(path, f"the file holds no pixels (shape {shape})")
     planes = int(np.prod(shape[:-2]))
-    if lazy is None and not (planes > 1 and np.prod(shape) * dtype.itemsize > LAZY_TIFF_BYTES):
+    large = np.prod(shape) * dtype.itemsize > LAZY_TIFF_BYTES or refusal(shape, dtype)
+    if lazy is None and not (planes > 1 and large):
         return read_image(path)
     import dask.array as da
 
@@ -524,6 +577,7 @@ def write_array(
     overwrite: bool = False,
     plane_axes: Sequence[int] = (-2, -1),
     progress: ProgressCallback | None = None,
+    metadata: ImageMetadata | None = None,
 ) -> Path:
     """Write an in-memory or lazy (dask) array to an image file or zarr store, atomically.
 
@@ -546,6 +600,11 @@ def write_array(
         any): a zarr store gets one chunk per plane.
     progress : callable, optional
         ``progress(planes_done, planes_total)`` as planes are written.
+    metadata : ImageMetadata, optional
+        Axes, pixel sizes and provenance record stored with the pixels: as
+        for :func:`write_image`; a zarr store keeps them in its attributes,
+        as an OME-Zarr image when the metadata come from OME and the axes
+        fit OME-Zarr's rules.
 
     Returns
     -------
@@ -573,15 +632,25 @@ def write_array(
     kind = image_format(path)
     if kind == "ZARR":
         return _write_zarr(
-            path, array, overwrite=overwrite, plane_axes=plane_axes, progress=progress
+            path,
+            array,
+            overwrite=overwrite,
+            plane_axes=plane_axes,
+            progress=progress,
+            metadata=metadata,
         )
     from .lazy import is_lazy
 
     if not is_lazy(array):
-        write_image(path, array, overwrite=overwrite)
+        write_image(path, array, overwrite=overwrite, metadata=metadata)
     elif kind == "TIFF":
         _write_tiff_lazily(
-            path, array, overwrite=overwrite, plane_axes=plane_axes, progress=progress
+            path,
+            array,
+            overwrite=overwrite,
+            plane_axes=plane_axes,
+            progress=progress,
+            metadata=metadata,
         )
     else:
         from .lazy import computing
@@ -589,7 +658,7 @@ def write_array(
         _check_writable(path, kind, array, overwrite)
         with computing():
             computed = np.asarray(array.compute())
-        write_image(path, computed, overwrite=overwrite)
+        write_image(path, computed, overwrite=overwrite, metadata=metadata)
     if progress is not None:
         total = _planes(array.shape, plane_axes)
         progress(total, total)
@@ -609,7 +678,7 @@ def _check_writable(path: Path, kind: str, array: Any, overwrite: bool) -> None:
         raise FileExistsError(f"{path} already exists (use overwrite to replace it)")
 
 
-def _write_tiff_lazily(path: Path, array, *, overwrite, plane_axes, progress) -> None:
+def _write_tiff_lazily(path: Path, array, *, overwrite, plane_axes, progress, metadata) -> None:
     import tifffile
 
     from .lazy import run_blocks
@@ -619,13 +688,12 @@ def _write_tiff_lazily(path: Path, array, *, overwrite, plane_axes, progress) ->
     temporary, handle = _create_temporary(path.parent, path.name)
     handle.close()
     with _published(temporary, path, overwrite=overwrite):
-        rgb = array.ndim >= 3 and array.shape[-1] in (3, 4) and array.dtype.kind in "uif"
         offset, _ = tifffile.imwrite(
             temporary,
             shape=array.shape,
             dtype=array.dtype,
-            photometric="rgb" if rgb else "minisblack",
             returnoffset=True,
+            **_tiff_options(array.shape, array.dtype, metadata),
         )
         with tifffile.TiffFile(temporary) as created:  # the planes must be contiguous
             if created.series[0].dataoffset != offset:
@@ -676,7 +744,7 @@ def _pwrite(fd: int, data: memoryview, position: int) -> None:
 _SEEK_LOCK = threading.Lock()
 
 
-def _write_zarr(path: Path, array, *, overwrite, plane_axes, progress) -> Path:
+def _write_zarr(path: Path, array, *, overwrite, plane_axes, progress, metadata) -> Path:
     from .lazy import is_lazy, run_blocks
 
     if zarr_root(path) != (path, ""):
@@ -699,9 +767,16 @@ def _write_zarr(path: Path, array, *, overwrite, plane_axes, progress) -> Path:
     temporary = _create_temporary_directory(path.parent, path.name)
     try:
         store = os.path.abspath(temporary)
+        attributes, component = _zarr_attributes(array.ndim, metadata)
+        if component:  # an OME-Zarr image: a group holding the array
+            group = zarr.open_group(store=store, mode="w")
+            group.attrs.update(attributes)
+            store = os.path.join(store, component)
         target = zarr.create_array(
             store=store, shape=array.shape, chunks=chunks, dtype=array.dtype, fill_value=0
         )
+        if not component:
+            target.attrs.update(attributes)
         if is_lazy(array):
             array = array.rechunk({axis: -1 for axis in axes})  # no-op for rendered arrays
             write = functools.partial(_write_zarr_block, store)
@@ -735,8 +810,9 @@ def _is_zarr_store(path: Path) -> bool:
 
 def _create_temporary_directory(directory: Path, name: str) -> Path:
     """A new hidden directory beside the destination."""
+    remove_stale_temporaries(directory, name)
     while True:
-        temporary = directory / f".{name}.{secrets.token_hex(4)}.tmp"
+        temporary = directory / temporary_name(name)
         try:
             os.mkdir(temporary)
         except FileExistsError:
@@ -749,7 +825,7 @@ def _publish_directory(temporary: Path, path: Path, *, overwrite: bool) -> None:
     if not overwrite or not os.path.lexists(path):
         _rename_no_replace(temporary, path)
         return
-    old = path.parent / f".{path.name}.{secrets.token_hex(4)}.old"
+    old = path.parent / temporary_name(path.name, ".old")
     os.rename(path, old)
     try:
         os.rename(temporary, path)
@@ -802,3 +878,394 @@ def _renameat2():
     ]
     function.restype = ctypes.c_int
     return function
+
+
+# -- metadata: colour, axes, pixel sizes, provenance ----------------------------------------------
+
+#: Axis letters (tifffile's, OME's) of the spatial axes, which carry physical sizes.
+SPATIAL_AXES = "ZYX"
+
+#: OME-Zarr unit names and the OME-XML symbols of the same units.
+_UNIT_SYMBOLS = {
+    "angstrom": "Å",
+    "nanometer": "nm",
+    "micrometer": "µm",
+    "millimeter": "mm",
+    "centimeter": "cm",
+    "meter": "m",
+}
+
+#: PIL image modes (PNG, JPEG, BMP) read as colour, with what the mode means.
+_PIL_COLOUR_MODES = {
+    "RGB": "RGB",
+    "RGBA": "RGBA",
+    "LA": "grey + alpha",
+    "PA": "palette + alpha",
+    "P": "palette",
+    "CMYK": "CMYK",
+    "YCbCr": "YCbCr",
+}
+
+#: OME-Zarr axis type of each axis letter (letters not here get no type).
+_OME_ZARR_TYPES = {"T": "time", "C": "channel", "Z": "space", "Y": "space", "X": "space"}
+
+
+@dataclasses.dataclass(frozen=True)
+class ImageMetadata:
+    """What an image file says about its pixels (see :func:`read_metadata`).
+
+    Attributes
+    ----------
+    axes : str or None
+        One letter per axis of the array, as tifffile and OME name them
+        (``T`` time, ``Z`` depth, ``C`` channel, ``Y``, ``X``, ``S`` colour
+        samples, ``Q`` other); None when the file does not say.
+    channel_axis : int or None
+        The colour axis the file declares (TIFF photometric RGB samples, a
+        PNG/JPEG/BMP colour type), or None for a grey image or planes.
+    colour : str
+        How the colour was read, in words (``"TIFF photometric RGB"``), or
+        ``""`` when the file says nothing about colour.
+    pixel_sizes : dict
+        Axis letter (``"X"``, ``"Y"``, ``"Z"``) -> ``(size, unit)``, the
+        unit an OME-Zarr name (``"micrometer"``) or None.
+    ome : bool
+        Whether axes and pixel sizes come from OME metadata (OME-TIFF,
+        OME-Zarr); an output given them is written as OME too.
+    provenance : dict or None
+        The provenance record of a rendering (:mod:`napari_labyrinth.provenance`).
+    ambiguous : bool
+        A last axis of 3 or 4 that no metadata names colour or not: it is
+        read as planes, and ``channel_axis=-1`` reads it as colour.
+    grey_alpha : bool
+        A grey image with an alpha channel (the last axis: grey, alpha).
+    """
+
+    axes: str | None = None
+    channel_axis: int | None = None
+    colour: str = ""
+    pixel_sizes: dict = dataclasses.field(default_factory=dict)
+    ome: bool = False
+    provenance: dict | None = None
+    ambiguous: bool = False
+    grey_alpha: bool = False
+
+    def for_output(self, extra_axis: str | None, provenance: dict | None) -> ImageMetadata:
+        """The metadata of a rendering of this image.
+
+        ``extra_axis`` is the letter of a leading axis the rendering adds
+        (the passes of a stack, the values of a sweep), or None.
+        """
+        axes = self.axes
+        if axes is not None and extra_axis is not None:
+            axes = extra_axis + axes
+        axis = self.channel_axis
+        if axis is not None and extra_axis is not None and axis >= 0:
+            axis += 1
+        return dataclasses.replace(self, axes=axes, channel_axis=axis, provenance=provenance)
+
+
+def read_metadata(path: str | os.PathLike) -> ImageMetadata:
+    """What an image file or zarr store says about its pixels, without reading them.
+
+    - TIFF (tifffile): the axes of the first series; its ``S`` axis is the
+      colour axis when the photometric interpretation is RGB; OME-TIFF
+      axes and ``PhysicalSizeX/Y/Z``; the provenance record (an OME
+      ``CommentAnnotation`` of namespace ``napari_labyrinth``, or the JSON
+      description tifffile writes).
+    - PNG, JPEG, BMP (Pillow): the colour type (``RGB``, ``RGBA``, grey +
+      alpha, palette: colour axis -1; grey: none); the record in a PNG
+      text chunk or a JPEG comment.
+    - zarr: OME-Zarr ``multiscales`` axes and scale of the full-resolution
+      level; the record in the attributes (of the group, or of the array).
+
+    A plain TIFF or zarr array whose last axis has 3 or 4 entries and no
+    colour metadata is marked ``ambiguous`` (it is read as planes).
+
+    Raises
+    ------
+    FileNotFoundError
+        If the file does not exist.
+    ImageFileError
+        (a ValueError) naming the file, if it cannot be read.
+    """
+    path = Path(path)
+    kind = image_format(path)
+    if kind == "ZARR":
+        return _zarr_metadata(path)
+    _require_file(path)
+    try:
+        if kind == "TIFF":
+            return _tiff_metadata(path)
+        return _pillow_metadata(path, kind)
+    except ImageFileError:
+        raise
+    except Exception as exc:  # readers raise many types for a bad file
+        raise ImageFileError(path, f"cannot read {kind} metadata: {_reason(exc)}") from exc
+
+
+def read_provenance(path: str | os.PathLike) -> dict:
+    """The provenance record stored in an output of napari-labyrinth.
+
+    Raises
+    ------
+    ImageFileError
+        (a ValueError) if the file holds no record.
+    """
+    record = read_metadata(path).provenance
+    if record is None:
+        raise ImageFileError(path, "holds no napari-labyrinth provenance record")
+    return record
+
+
+def _record(text: Any, path: Path) -> dict | None:
+    from .provenance import ProvenanceError, check, from_json
+
+    if text is None:
+        return None
+    try:
+        if isinstance(text, (str, bytes)):
+            return from_json(text)
+        check(text)
+        return dict(text)
+    except ProvenanceError as exc:
+        raise ImageFileError(path, str(exc)) from None
+
+
+def _ambiguous(shape: Sequence[int], channel_axis: int | None, axes: str | None) -> bool:
+    return channel_axis is None and len(shape) >= 3 and shape[-1] in (3, 4) and not axes
+
+
+def _tiff_metadata(path: Path) -> ImageMetadata:
+    import tifffile
+
+    from .provenance import KEY
+
+    with tifffile.TiffFile(path) as tif:
+        series = tif.series[0]
+        axes, shape = series.axes, series.shape
+        page = series.keyframe
+        channel_axis, colour = None, ""
+        photometric = tifffile.PHOTOMETRIC(page.photometric)
+        if photometric == tifffile.PHOTOMETRIC.RGB and "S" in axes:
+            channel_axis = axes.index("S")
+            colour = f"TIFF photometric RGB, {page.samplesperpixel} samples per pixel"
+        record, sizes, ome = None, {}, bool(tif.is_ome and tif.ome_metadata)
+        if ome:
+            image = _first(tifffile.xml2dict(tif.ome_metadata)["OME"].get("Image"))
+            pixels = (image or {}).get("Pixels", {})
+            for letter in SPATIAL_AXES:
+                size = pixels.get(f"PhysicalSize{letter}")
+                if size is not None:
+                    unit = pixels.get(f"PhysicalSize{letter}Unit", "µm")
+                    sizes[letter] = (float(size), _unit_name(unit))
+            annotations = tifffile.xml2dict(tif.ome_metadata)["OME"].get(
+                "StructuredAnnotations", {}
+            )
+            for comment in _all(annotations.get("CommentAnnotation")):
+                if isinstance(comment, dict) and comment.get("Namespace") == KEY:
+                    record = _record(str(comment.get("Value")), path)
+        elif tif.shaped_metadata:
+            record = _record(tif.shaped_metadata[0].get(KEY), path)
+    tifffile_default = not ome and set(axes) <= set("QSYX")
+    return ImageMetadata(
+        axes=None if tifffile_default else axes,
+        channel_axis=channel_axis,
+        colour=colour,
+        pixel_sizes=sizes,
+        ome=ome,
+        provenance=record,
+        ambiguous=_ambiguous(shape, channel_axis, None if tifffile_default else axes),
+    )
+
+
+def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
+    from .provenance import KEY
+
+    with pillow_header(path) as image:  # past Pillow's size limit: the budget judges size
+        mode = image.mode
+        if kind == "PNG":
+            text = getattr(image, "text", {}).get(KEY)
+        elif kind == "JPEG":
+            text = image.info.get("comment") or None
+        else:
+            text = None
+    if text is not None and kind == "JPEG" and not text.lstrip().startswith(b"{"):
+        text = None  # a comment of another program
+    colour = _PIL_COLOUR_MODES.get(mode)
+    return ImageMetadata(
+        axes="YXS" if colour else "YX",
+        channel_axis=-1 if colour else None,
+        colour=f"{kind} colour type {colour}" if colour else f"{kind} grey ({mode})",
+        provenance=_record(text, path),
+        grey_alpha=mode == "LA",
+    )
+
+
+def _zarr_metadata(path: Path) -> ImageMetadata:
+    from .provenance import KEY
+
+    array = _open_zarr_array(path)
+    root, component = zarr_root(path)
+    import zarr
+
+    node = zarr.open(store=os.path.abspath(root), mode="r", path=component or None)
+    attributes = dict(node.attrs)
+    record = attributes.get(KEY, dict(array.attrs).get(KEY))
+    multiscales = attributes.get("multiscales") or attributes.get("ome", {}).get("multiscales")
+    axes, sizes, ome = None, {}, False
+    if isinstance(node, zarr.Group) and multiscales:
+        ome = True
+        scale = multiscales[0]
+        names = [a["name"] if isinstance(a, dict) else a for a in scale.get("axes", ())]
+        units = [a.get("unit") if isinstance(a, dict) else None for a in scale.get("axes", ())]
+        if len(names) == array.ndim:
+            axes = "".join(name[0].upper() if len(name) == 1 else "Q" for name in names)
+            factors = _zarr_scale(scale["datasets"][0])
+            for letter, unit, factor in zip(axes, units, factors or (), strict=False):
+                if letter in SPATIAL_AXES:
+                    sizes[letter] = (float(factor), unit)
+        else:
+            ome = False
+    elif isinstance(attributes.get("axes"), str) and len(attributes["axes"]) == array.ndim:
+        axes = attributes["axes"]  # written by _zarr_attributes where OME-Zarr does not fit
+        sizes = {k: (float(v[0]), v[1]) for k, v in attributes.get("pixel_sizes", {}).items()}
+    return ImageMetadata(
+        axes=axes,
+        pixel_sizes=sizes,
+        ome=ome,
+        provenance=_record(record, path),
+        ambiguous=_ambiguous(array.shape, None, axes),
+    )
+
+
+def _zarr_scale(dataset: dict) -> list[float] | None:
+    for transform in dataset.get("coordinateTransformations", ()):
+        if transform.get("type") == "scale":
+            return transform.get("scale")
+    return None
+
+
+def _first(value: Any) -> Any:
+    return value[0] if isinstance(value, list) else value
+
+
+def _all(value: Any) -> list:
+    if value is None:
+        return []
+    return value if isinstance(value, list) else [value]
+
+
+def _unit_name(symbol: str | None) -> str | None:
+    names = {symbol: name for name, symbol in _UNIT_SYMBOLS.items()}
+    return names.get(symbol, symbol)
+
+
+def _unit_symbol(name: str | None) -> str | None:
+    return _UNIT_SYMBOLS.get(name, name)
+
+
+def _tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | None) -> dict:
+    """Keyword arguments of ``tifffile.imwrite``: photometric, and the metadata.
+
+    OME-XML (axes, physical sizes, the record as a ``CommentAnnotation``)
+    when the metadata come from OME and tifffile can write the axes as
+    OME; otherwise tifffile's JSON description with the record in it.
+    """
+    from .provenance import KEY, to_json
+
+    dtype = np.dtype(dtype)
+    if metadata is None:
+        rgb = len(shape) >= 3 and shape[-1] in (3, 4) and dtype.kind in "uif"
+    else:  # colour samples only where the input had them
+        axis = metadata.channel_axis
+        rgb = axis is not None and axis % len(shape) == len(shape) - 1 and shape[-1] in (3, 4)
+    options: dict[str, Any] = {"photometric": "rgb" if rgb else "minisblack"}
+    record = None if metadata is None else metadata.provenance
+    if metadata is not None and metadata.ome and metadata.axes and _ome_tiff_ok(metadata, shape):
+        ome: dict[str, Any] = {"axes": metadata.axes}
+        for letter, (size, unit) in metadata.pixel_sizes.items():
+            ome[f"PhysicalSize{letter}"] = size
+            if unit is not None:
+                ome[f"PhysicalSize{letter}Unit"] = _unit_symbol(unit)
+        if record is not None:
+            ome["CommentAnnotation"] = {"Namespace": KEY, "Value": to_json(record)}
+        options.update(ome=True, metadata=ome)
+    else:
+        options.update(ome=False, metadata={KEY: record} if record is not None else {})
+    return options
+
+
+def _ome_tiff_ok(metadata: ImageMetadata, shape: Sequence[int]) -> bool:
+    """Whether tifffile can write these axes as OME-XML (else a JSON description)."""
+    from tifffile import OmeXml, OmeXmlError
+
+    try:
+        xml = OmeXml()
+        storedshape = (1, 1, 1, int(shape[-2]), int(shape[-1]), 1)
+        if metadata.axes.endswith("S"):
+            storedshape = (1, 1, 1, int(shape[-3]), int(shape[-2]), int(shape[-1]))
+        pages = int(np.prod(shape[: -3 if metadata.axes.endswith("S") else -2]))
+        storedshape = (pages,) + storedshape[1:]
+        xml.addimage("uint8", tuple(shape), storedshape, axes=metadata.axes)
+    except (OmeXmlError, ValueError):
+        return False
+    return len(metadata.axes) == len(shape)
+
+
+def _zarr_attributes(ndim: int, metadata: ImageMetadata | None) -> tuple[dict, str]:
+    """The attributes of a zarr output and the array's path in it ("" for a plain array).
+
+    An OME-Zarr image (version 0.5: a group with ``ome.multiscales`` and its
+    array at ``0``) when the metadata come from OME and the axes fit the
+    specification (2 to 5 axes: time, then channel or another kind, then 2
+    or 3 spatial ones); otherwise a plain array with the record (and the
+    axes, if known) in its attributes.
+    """
+    from .provenance import KEY
+
+    attributes: dict[str, Any] = {}
+    if metadata is None:
+        return attributes, ""
+    if metadata.provenance is not None:
+        attributes[KEY] = metadata.provenance
+    axes = metadata.axes
+    if not (metadata.ome and axes and len(axes) == ndim and _ome_zarr_ok(axes)):
+        if axes and len(axes) == ndim:  # read back by _zarr_metadata
+            attributes["axes"] = axes
+            attributes["pixel_sizes"] = {k: list(v) for k, v in metadata.pixel_sizes.items()}
+        return attributes, ""
+    entries, scale = [], []
+    for letter in axes:
+        entry: dict[str, Any] = {"name": letter.lower() if letter in "TCZYX" else "q"}
+        if letter in _OME_ZARR_TYPES:
+            entry["type"] = _OME_ZARR_TYPES[letter]
+        size, unit = metadata.pixel_sizes.get(letter, (1.0, None))
+        if unit is not None:
+            entry["unit"] = unit
+        entries.append(entry)
+        scale.append(float(size))
+    attributes["ome"] = {
+        "version": "0.5",
+        "multiscales": [
+            {
+                "axes": entries,
+                "datasets": [
+                    {"path": "0", "coordinateTransformations": [{"type": "scale", "scale": scale}]}
+                ],
+            }
+        ],
+    }
+    return attributes, "0"
+
+
+def _ome_zarr_ok(axes: str) -> bool:
+    """Whether the axes follow OME-Zarr: 2-5 of them, [time] [channel/other] 2-3 space."""
+    space = axes.lstrip("TCQ")
+    head = axes[: len(axes) - len(space)]
+    return (
+        2 <= len(axes) <= 5
+        and 2 <= len(space) <= 3
+        and set(space) <= set(SPATIAL_AXES)
+        and head in ("", "T", "C", "Q", "TC", "TQ")
+    )

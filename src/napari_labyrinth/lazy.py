@@ -31,11 +31,25 @@ from typing import Any
 import numpy as np
 
 from ._engine import render, run_to_end
-from .core.colour import TONES, LuminancePlanes, luminance, luminance_for_limits, resolve_colour
+from .core.colour import TONES, LuminancePlanes, luminance, luminance_for_limits
 from .core.parameters import LabyrinthParameters
+from ._budget import refuse_unaffordable
 from .core.percentiles import lerp, linear_ranks
-from .core.planes import PlaneLayout, normalise_channel_axis, validate_shape, without_alpha
-from .core.tone_scale import DEFAULT_PERCENTILES, resolve_tone_scale, validate_dtype
+from .core.planes import (
+    PlaneLayout,
+    normalise_channel_axis,
+    resolve_alpha,
+    resolve_layout_colour,
+    validate_shape,
+    validate_stream_range,
+    without_alpha,
+)
+from .core.tone_scale import (
+    DEFAULT_PERCENTILES,
+    resolve_tone_scale,
+    separated_limits,
+    validate_dtype,
+)
 
 #: Bins of each histogram pass (a float32 or 32-bit integer image takes one
 #: min/max pass, one histogram pass and one gathering pass).
@@ -92,24 +106,42 @@ def render_lazy(
     plane_offset: int,
     record_passes: bool,
     colour: str | None = None,
+    alpha: bool | None = None,
 ):
     """A lazy dask array rendering ``image`` block by block, whole planes per block.
 
     In the luminance mode (``colour``) a block holds every channel of its
     planes, and the default tone limits are those of the luminance, streamed.
+    A big-endian image is rendered as its native-order equivalent and the
+    result cast back to its dtype.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``image`` or the option at fault, before any block is read:
+        unknown chunk sizes, or planes too large to render in this
+        machine's memory (see ``_budget``).
     """
     import dask.array as da
 
-    dtype = validate_dtype(np.dtype(image.dtype))
+    given = np.dtype(image.dtype)
+    dtype = validate_dtype(given if given.isnative else given.newbyteorder("="))
+    _check_known_shape(image)
     validate_shape(image.shape)
     channel_axis = normalise_channel_axis(channel_axis, image.ndim)
-    in_luminance = resolve_colour(colour, image.shape, channel_axis) == "luminance"
+    has_alpha = resolve_alpha(alpha, image.shape, channel_axis)
+    layout = PlaneLayout(tuple(image.shape), channel_axis, alpha=has_alpha)
+    validate_stream_range(plane_offset, layout.n_planes)
+    refuse_unaffordable("image", layout.plane_shape, dtype, planes=1, what="each plane")
+    if dtype != given:
+        image = image.astype(dtype)
+    in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
     if tone_limits is None and dtype != np.uint8:
         if in_luminance:
             values = luminance_for_limits(lazy_luminance(image, channel_axis), dtype)
             tone_limits = default_tone_limits(values)  # exact, streamed
         else:
-            tone_limits = default_tone_limits(image, channel_axis)  # exact, streamed
+            tone_limits = default_tone_limits(image, channel_axis, has_alpha)  # exact, streamed
     scale = resolve_tone_scale(np.empty(0, dtype), tone_limits)
     planes = image if channel_axis is None else da.moveaxis(image, channel_axis, -3)
     whole = {planes.ndim - 2: -1, planes.ndim - 1: -1}
@@ -127,6 +159,7 @@ def render_lazy(
             plane_offset=plane_offset,
             leading_origin=tuple(start for start, _ in location[:-2]),
             leading_total=leading_total,
+            alpha=has_alpha,
         )
         if not in_luminance:
             rendering = render(block, layout, scale, parameters, seed, record_passes=record_passes)
@@ -165,7 +198,16 @@ def render_lazy(
         shift = 0
     if channel_axis is not None:
         rendered = da.moveaxis(rendered, -3, channel_axis + shift)
-    return rendered
+    return rendered if dtype == given else rendered.astype(given)
+
+
+def _check_known_shape(image) -> None:
+    """Refuse a dask array whose chunk sizes are unknown (NaN), naming ``image``."""
+    if any(math.isnan(size) for size in image.shape):
+        raise ValueError(
+            f"image is a dask array with unknown chunk sizes (shape {image.shape}, e.g. after "
+            "boolean indexing): call image.compute_chunk_sizes() first"
+        )
 
 
 def lazy_luminance(image, channel_axis: int):
@@ -200,7 +242,9 @@ def is_in_memory(data: Any) -> bool:
     return isinstance(data, np.ndarray)
 
 
-def default_tone_limits(image: Any, channel_axis: int | None = None) -> tuple[float, float]:
+def default_tone_limits(
+    image: Any, channel_axis: int | None = None, alpha: bool | None = None
+) -> tuple[float, float]:
     """The tone limits :func:`~napari_labyrinth.labyrinth` uses by default, for any array.
 
     Parameters
@@ -210,6 +254,8 @@ def default_tone_limits(image: Any, channel_axis: int | None = None) -> tuple[fl
     channel_axis : int, optional
         Its colour axis; with 4 channels the last (alpha) is left out, as the
         API does.
+    alpha : bool, optional
+        Whether the last channel is alpha (see ``core.planes.resolve_alpha``).
 
     Returns
     -------
@@ -217,7 +263,7 @@ def default_tone_limits(image: Any, channel_axis: int | None = None) -> tuple[fl
         (0, 255) for uint8; otherwise the 0.5th and 99.5th percentiles of the
         finite values, equal bit for bit to ``numpy.percentile`` on the same
         values held in memory ((0, 1) without finite values, ``high = low + 1``
-        for a constant image). Passing them as ``tone_limits`` renders exactly
+        for a constant image, see ``core.tone_scale.separated_limits``). Passing them as ``tone_limits`` renders exactly
         what ``labyrinth`` renders without them.
 
     Notes
@@ -228,7 +274,7 @@ def default_tone_limits(image: Any, channel_axis: int | None = None) -> tuple[fl
     holding the order statistics (more only for extremely concentrated data).
     Memory stays within a few blocks and a few MB of partial results.
     """
-    values = without_alpha(image, channel_axis)
+    values = without_alpha(image, channel_axis, alpha)
     if not is_lazy(values):
         scale = resolve_tone_scale(np.asarray(values), None)
         return scale.low, scale.high
@@ -237,10 +283,7 @@ def default_tone_limits(image: Any, channel_axis: int | None = None) -> tuple[fl
     result = percentiles(values, DEFAULT_PERCENTILES)
     if result is None:
         return 0.0, 1.0
-    low, high = result
-    if not high > low:
-        high = low + 1.0
-    return low, high
+    return separated_limits(*result)
 
 
 def percentiles(array: Any, q: Sequence[float]) -> list[float] | None:

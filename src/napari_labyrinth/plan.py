@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__, metrics
+from . import metrics
 from .api import MODES
 from .core.colour import resolve_colour
 from .core.parameters import PARAMETERS, SWEEPABLE, format_value
@@ -34,6 +34,7 @@ from .core.planes import first_plane_index, step_count
 from .core.presets import DEFAULT_PRESET, PRESETS, resolve_parameters, resolve_sweep
 from .core.tone_scale import validate_tone_limits
 from .lazy import is_in_memory
+from .provenance import FUNCTIONS, KEY, input_record, make_record, sweep_arguments
 
 __all__ = [
     "ALL_PLANES",
@@ -52,14 +53,12 @@ __all__ = [
     "sweep_label",
 ]
 
-#: Key of the result layers' ``metadata`` under which a run is recorded.
-METADATA_KEY = "napari_labyrinth"
+#: Key of the result layers' ``metadata`` under which a run is recorded
+#: (the provenance record of :mod:`napari_labyrinth.provenance`).
+METADATA_KEY = KEY
 
 #: Which planes of an nD layer to render.
 ALL_PLANES, CURRENT_PLANE = "all planes", "current plane"
-
-#: API function each mode calls (the metadata record reproduces a run with it).
-FUNCTIONS = {"single": "labyrinth", "stack": "labyrinth_stack", "sweep": "labyrinth_sweep"}
 
 #: Parameters a sweep may vary: every parameter that takes one word, and the seed.
 SWEEP_PARAMETERS = tuple(SWEEPABLE)
@@ -603,24 +602,25 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     description = result_description(
         snapshot.name, mode, resolved.passes, preset, edits, seed, sweep, label
     )
-    record = {
-        "version": __version__,
-        "description": description,
-        "mode": mode,
-        "function": FUNCTIONS[mode],
-        "arguments": {k: (list(v) if isinstance(v, tuple) else v) for k, v in arguments.items()},
-        "source_layer": snapshot.name,
-        "source_shape": list(source.shape),
-        "source_dtype": str(source.dtype),
-        "source_index": list(source_index) if partial else None,
-        "preset": preset,
-        "overrides": dict(edits),
-        "parameters": resolved.as_dict(),
-        "seed": seed,
-        "tone_limits": list(limits),
-        "sweep": {"parameter": sweep[0], "values": sweep[1]} if sweep else None,
-        "lazy": lazy,
-    }
+    record = make_record(
+        mode=mode,
+        preset=preset,
+        overrides=edits,
+        parameters=resolved.as_dict(),
+        seed=seed,
+        tone_limits=limits,
+        arguments=arguments,
+        sweep=sweep,
+        source=input_record(snapshot.name, source.shape, source.dtype),
+    )
+    record.update(
+        description=description,
+        source_layer=snapshot.name,
+        source_shape=list(source.shape),
+        source_dtype=str(source.dtype),
+        source_index=list(source_index) if partial else None,
+        lazy=lazy,
+    )
     if not partial:  # the record renders the whole data
         record["arguments"].pop("plane_offset", None)
     extra_axis = {"stack": "pass", "sweep": sweep[0] if sweep else None}.get(mode)
@@ -668,11 +668,7 @@ def _sweep(
 
 def _sweep_arguments(arguments: dict[str, Any], parameter: str, values: list[Any]) -> None:
     """Turn the arguments of one rendering into those of ``labyrinth_sweep``."""
-    arguments.pop(parameter, None)
-    if parameter == "tone_ranges":
-        arguments.pop("tones", None)
-    arguments["parameter"] = parameter
-    arguments["values"] = list(values)
+    sweep_arguments(arguments, parameter, values)
 
 
 def _shear_matrix(shear: np.ndarray, ndim: int) -> np.ndarray:

@@ -8,6 +8,17 @@ polarising microscope, the kind of pattern the labyrinthine tiling evokes:
 - :func:`cholesteric_fingerprint`: the stripes of a cholesteric whose helix
   axis lies in the plane of the film.
 
+Three more stand for the images on which one variance threshold does not
+serve all (dark backgrounds, noise, bright low contrast):
+
+- :func:`smectic_batonnets`: bright elongated germs of a smectic phase
+  growing in a dark isotropic melt, between crossed polarisers (a near-black
+  background, as in dark-field or fluorescence microscopy);
+- :func:`fluorescence_stack`: a noisy 16-bit time-lapse of fluorescent cells
+  (Poisson and read noise on a dim background);
+- :func:`bright_fingerprint`: a cholesteric fingerprint seen in bright field,
+  low contrast on a bright background.
+
 They depend on numpy and scipy only and are deterministic for a given seed.
 :func:`camera` and :func:`cell` return scikit-image's images (imported on
 first use, so importing this module stays light).
@@ -23,9 +34,12 @@ import numpy as np
 
 __all__ = [
     "SAMPLES",
+    "bright_fingerprint",
     "camera",
     "cell",
     "cholesteric_fingerprint",
+    "fluorescence_stack",
+    "smectic_batonnets",
     "director_angle",
     "nematic_schlieren",
     "schlieren_defects",
@@ -293,6 +307,163 @@ def cholesteric_fingerprint(
     return _fingerprint((rows, columns), seed, float(pitch), noise).astype(np.float32)
 
 
+def smectic_batonnets(
+    shape: tuple[int, int] = (512, 512), *, seed: int = 0, count: int | None = None
+) -> np.ndarray:
+    """Bright smectic bâtonnets in a dark isotropic melt, between crossed polarisers.
+
+    Parameters
+    ----------
+    shape : (int, int), optional
+        Image shape ``(rows, columns)``.
+    seed : int, optional
+        Seed of the random generator; the same seed gives the same image.
+    count : int, optional
+        Number of bâtonnets (>= 1). Default: about one per 60 x 60 pixels.
+
+    Returns
+    -------
+    image : (rows, columns) uint8 ndarray
+        A near-black background (tones 2-6 with camera noise) and bright
+        rods of tones 120-250 with focal-conic stripes along them.
+
+    Notes
+    -----
+    On cooling from the isotropic phase, a smectic A nucleates as elongated
+    germs (bâtonnets) that are birefringent and shine between crossed
+    polarisers while the isotropic melt around them stays black. Each rod is
+    an ellipse of seeded length, width and orientation with a soft edge, its
+    brightness modulated by stripes across its long axis; the camera adds a
+    dark offset, shot noise and read noise.
+
+    Examples
+    --------
+    >>> from napari_labyrinth.samples import smectic_batonnets
+    >>> image = smectic_batonnets((128, 128))
+    >>> image.dtype, int(np.median(image)) < 10
+    (dtype('uint8'), True)
+    """
+    rows, columns = _validate_shape(shape)
+    rng = np.random.default_rng(_validate_seed(seed))
+    if count is None:
+        count = max(1, int(round(rows * columns / 60.0**2)))
+    elif not isinstance(count, numbers.Integral) or isinstance(count, bool) or count < 1:
+        raise ValueError(f"count of batonnets must be an integer >= 1, got {count!r}")
+    light = np.zeros((rows, columns))
+    for _ in range(int(count)):
+        cy, cx = rng.uniform(0, rows), rng.uniform(0, columns)
+        length, width = rng.uniform(12, 40), rng.uniform(3, 8)
+        angle = rng.uniform(0, np.pi)
+        period = rng.uniform(5, 9)
+        brightness = rng.uniform(0.5, 1.0)
+        box = _box(cy, cx, length + 4, rows, columns)  # the rod and its soft edge
+        y, x = np.mgrid[box].astype(np.float64)
+        along = (x - cx) * np.cos(angle) + (y - cy) * np.sin(angle)
+        across = -(x - cx) * np.sin(angle) + (y - cy) * np.cos(angle)
+        inside = np.hypot(along / length, across / width)
+        body = 1.0 / (1.0 + np.exp(np.minimum((inside - 1.0) * 12.0, 50.0)))  # soft edge
+        stripes = 0.75 + 0.25 * np.cos(2 * np.pi * along / period)
+        light[box] = np.maximum(light[box], body * stripes * brightness)
+    photons = 4.0 + 240.0 * light
+    counts = rng.poisson(photons).astype(np.float64) + rng.normal(0.0, 1.5, light.shape)
+    return np.clip(np.rint(counts), 0, 255).astype(np.uint8)
+
+
+def fluorescence_stack(
+    shape: tuple[int, int] = (512, 512), *, planes: int = 4, seed: int = 0
+) -> np.ndarray:
+    """A noisy 16-bit time-lapse of fluorescent cells.
+
+    Parameters
+    ----------
+    shape : (int, int), optional
+        Plane shape ``(rows, columns)``.
+    planes : int, optional
+        Time points (>= 1); the cells drift and dim slowly between them.
+    seed : int, optional
+        Seed of the random generator; the same seed gives the same stack.
+
+    Returns
+    -------
+    stack : (planes, rows, columns) uint16 ndarray
+        Camera counts: an offset of 100, a dim uneven background, cells of a
+        few hundred counts with bright nuclei and filaments, Poisson (shot)
+        and Gaussian read noise.
+
+    Examples
+    --------
+    >>> from napari_labyrinth.samples import fluorescence_stack
+    >>> stack = fluorescence_stack((96, 96), planes=2)
+    >>> stack.shape, stack.dtype
+    ((2, 96, 96), dtype('uint16'))
+    """
+    from scipy import ndimage
+
+    rows, columns = _validate_shape(shape)
+    if not isinstance(planes, numbers.Integral) or isinstance(planes, bool) or planes < 1:
+        raise ValueError(f"planes must be an integer >= 1, got {planes!r}")
+    rng = np.random.default_rng(_validate_seed(seed))
+    count = max(2, int(round(rows * columns / 90.0**2)))
+    centres = np.column_stack([rng.uniform(0, rows, count), rng.uniform(0, columns, count)])
+    radii = rng.uniform(14, 30, count)
+    drift = rng.normal(0.0, 1.5, (count, 2))
+    fibres = ndimage.gaussian_filter(rng.normal(size=(rows, columns)), 3.0)
+    fibres = np.abs(fibres) < 0.08 * fibres.std() * 4  # thin meandering lines
+    background = 30.0 * ndimage.gaussian_filter(rng.random((rows, columns)), 40.0, mode="wrap")
+    stack = np.empty((int(planes), rows, columns), np.uint16)
+    for t in range(int(planes)):
+        signal = background.copy()
+        for (cy, cx), radius, (dy, dx) in zip(centres, radii, drift):
+            cy, cx = cy + t * dy, cx + t * dx
+            box = _box(cy, cx, 2.0 * radius, rows, columns)
+            y, x = np.mgrid[box].astype(np.float64)
+            distance = np.hypot(y - cy, x - cx) / radius
+            cytoplasm = 1.0 / (1.0 + np.exp(np.minimum((distance - 1.0) * 10.0, 50.0)))
+            nucleus = 1.0 / (1.0 + np.exp(np.minimum((distance - 0.4) * 14.0, 50.0)))
+            signal[box] += cytoplasm * (150.0 + 250.0 * fibres[box]) + nucleus * 700.0
+        signal *= 0.97**t  # photobleaching
+        counts = rng.poisson(signal) + rng.normal(100.0, 6.0, signal.shape)
+        stack[t] = np.clip(np.rint(counts), 0, 65535).astype(np.uint16)
+    return stack
+
+
+def bright_fingerprint(
+    shape: tuple[int, int] = (512, 512), *, seed: int = 0, pitch: float = 14.0
+) -> np.ndarray:
+    """A cholesteric fingerprint in bright field: low contrast on a bright background.
+
+    Parameters
+    ----------
+    shape : (int, int), optional
+        Image shape ``(rows, columns)``.
+    seed : int, optional
+        Seed of the random generator; the same seed gives the same image.
+    pitch : float, optional
+        Cholesteric pitch in pixels (>= 4), as for :func:`cholesteric_fingerprint`.
+
+    Returns
+    -------
+    image : (rows, columns) uint8 ndarray
+        Stripes between tones about 185 and 230 under a smooth illumination
+        gradient, with camera noise.
+
+    Examples
+    --------
+    >>> from napari_labyrinth.samples import bright_fingerprint
+    >>> image = bright_fingerprint((128, 128))
+    >>> bool(image.min() > 150)
+    True
+    """
+    rows, columns = _validate_shape(shape)
+    seed = _validate_seed(seed)
+    stripes = cholesteric_fingerprint((rows, columns), seed=seed, pitch=pitch, noise=0.0)
+    rng = np.random.default_rng(seed + 1)
+    y, x = np.mgrid[0:rows, 0:columns] / max(rows, columns)
+    illumination = 1.0 - 0.06 * ((y - 0.4) ** 2 + (x - 0.6) ** 2)
+    tones = illumination * (188.0 + 40.0 * stripes) + rng.normal(0.0, 2.0, stripes.shape)
+    return np.clip(np.rint(tones), 0, 255).astype(np.uint8)
+
+
 def camera() -> np.ndarray:
     """The ``camera`` photograph of scikit-image (512 x 512, uint8).
 
@@ -444,6 +615,13 @@ def _fingerprint(shape: tuple[int, int], seed: int, pitch: float, noise: float) 
     if noise:
         intensity += np.random.default_rng([seed, 1]).normal(0.0, noise, shape)
     return np.clip(intensity, 0.0, 1.0)
+
+
+def _box(cy: float, cx: float, reach: float, rows: int, columns: int) -> tuple[slice, slice]:
+    """The slices of the pixels within ``reach`` (rows and columns) of ``(cy, cx)``."""
+    top, bottom = max(0, int(cy - reach)), min(rows, int(cy + reach) + 2)
+    left, right = max(0, int(cx - reach)), min(columns, int(cx + reach) + 2)
+    return slice(top, max(top, bottom)), slice(left, max(left, right))
 
 
 def _zero_sum_strengths(rng: np.random.Generator, count: int) -> np.ndarray:

@@ -13,6 +13,7 @@ import pytest
 
 from napari_labyrinth import __version__, labyrinth, labyrinth_stack, labyrinth_sweep
 from napari_labyrinth.cli import main
+from napari_labyrinth.cli.demo import LABEL_HEIGHT
 from napari_labyrinth.io import read_image, write_image
 
 RNG = np.random.default_rng(42)
@@ -472,10 +473,19 @@ def test_demo_writes_the_files_it_prints(tmp_path, capsys):
         assert stack.shape == (5,) + source.shape
         comparison = read_image(out / f"{sample}_comparison.png")
         height, width = source.shape
-        assert comparison.shape == (height, 3 * width + 2 * 4) and comparison.dtype == np.uint8
-        np.testing.assert_array_equal(comparison[:, :width], source)
+        band = LABEL_HEIGHT
+        assert comparison.shape == (band + height, 3 * width + 2 * 4)
+        assert comparison.dtype == np.uint8
+        np.testing.assert_array_equal(comparison[band:, :width], source)
+        np.testing.assert_array_equal(comparison[band:, width + 4 : 2 * width + 4], stack[1])
         np.testing.assert_array_equal(comparison[:, width : width + 4], 255)
-        np.testing.assert_array_equal(comparison[:, -width:], stack[4])
+        np.testing.assert_array_equal(comparison[band:, -width:], stack[4])
+        for panel in range(3):  # each label band holds dark text on white
+            label = comparison[:band, panel * (width + 4) : panel * (width + 4) + width]
+            assert label.max() == 255 and label.min() < 100
+        # every rendering reproduces from its record
+        for name in (f"{sample}_labyrinth.png", f"{sample}_labyrinth_stack.tif"):
+            assert main(["reproduce", str(out / name)]) == 0
 
 
 def test_demo_refuses_existing_files(tmp_path, capsys):
@@ -536,14 +546,21 @@ def test_installed_console_script(tmp_path):
 
 
 def test_every_one_word_parameter_has_a_flag_with_its_defaults_in_help(capsys):
-    from napari_labyrinth.core.parameters import SWEEPABLE
-    from napari_labyrinth.core.presets import DEFAULT_PRESET
+    from napari_labyrinth.core.parameters import PARAMETERS, SWEEPABLE, format_value
+    from napari_labyrinth.core.presets import DEFAULT_PRESET, PRESETS
 
     assert main(["render", "--help"]) == 0
     out = " ".join(capsys.readouterr().out.split())
     for name, parameter in SWEEPABLE.items():
         assert "--" + name.replace("_", "-") in out, name
-    assert f"Paper: 0.5. (default 0.04 with the {DEFAULT_PRESET} preset)" in out
+    assert f"(default 0.04 with the {DEFAULT_PRESET} preset; paper 0.5)" in out
+    assert f"(default 4 with the {DEFAULT_PRESET} preset; paper 1)" in out  # passes
+    for name, parameter in PARAMETERS.items():
+        if parameter.kind == "tones":
+            continue
+        default = format_value(PRESETS[DEFAULT_PRESET][name])
+        text = f"default {default} with the {DEFAULT_PRESET} preset; paper "
+        assert text + format_value(parameter.paper) in out, name
 
 
 @pytest.mark.parametrize(

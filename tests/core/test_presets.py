@@ -64,3 +64,22 @@ def test_labyrinth_walls_stay_on_the_edges_pass_after_pass(image):
     stack = labyrinth_stack(image, passes=8)
     for k in (1, 4, 8):
         assert metrics.edge_enhancement(image, stack[k]) > 0.2, k
+
+
+def test_near_black_tones_stay_in_their_own_range_in_the_labyrinth_preset():
+    dark = samples.smectic_batonnets((96, 96), seed=1)
+    out = labyrinth(dark, seed=2)
+    below = dark < 10  # under the paper's L_inf^1: the black range [0, 10]
+    changed = out != dark
+    assert (changed & below).any()
+    assert (out[changed & below] <= 10).all()
+    # the paper's ranges push the same pixels up into the first range
+    paper_ranges = labyrinth(dark, seed=2, tone_ranges=3)
+    assert (paper_ranges[below & (paper_ranges != dark)] >= 10).all()
+
+
+def test_the_black_range_adds_edge_enhancement_on_a_dark_field_image():
+    dark = samples.smectic_batonnets((128, 128), seed=0)
+    with_black = metrics.edge_enhancement(dark, labyrinth(dark))
+    without = metrics.edge_enhancement(dark, labyrinth(dark, tone_ranges=3))
+    assert with_black > without + 0.03

@@ -123,5 +123,5 @@ def field(parameter: Parameter):
         widget.native.setDecimals(4)
         return widget
     # int, seed, and tone_ranges as a count of equal ranges
-    high = _QT_INT_MAX if parameter.high is None else min(parameter.high, _QT_INT_MAX)
+    high = min(parameter.high, _QT_INT_MAX)  # the table bounds every number
     return SpinBox(label=parameter.label, min=parameter.low, max=high, tooltip=tooltip)

@@ -34,6 +34,7 @@ from .._warmup import start_in_background
 from ..core.presets import DEFAULT_PRESET
 from ..plan import MODES, SWEEP_PARAMETERS, Choices, RenderPlan, default_sweep_text, make_plan
 from ..run import Failure, Outcome
+from .auto_window import AutoWindow
 from .compare import CompareView
 from .form import ParameterForm
 from .inputs import InputSection
@@ -114,6 +115,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self.preset, self.edited = self.form.preset, self.form.edited
         self.fields, self.seed = self.form.fields, self.form.seed
         self.preset.changed.connect(self._apply_preset)
+        self.auto_window = AutoWindow(self.form, self.inputs.snapshot, self.choices, self._say)
         self._build_mode_section()
         self.metrics_table = MetricsTable()
         self.metrics_title = self.metrics_table.title
@@ -242,6 +244,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         layout.setContentsMargins(4, 4, 4, 4)
         layout.addWidget(self.inputs.box.native)
         layout.addWidget(self.form.parameter_box.native)
+        layout.addWidget(self.auto_window.plot)
         layout.addWidget(self.reading_section)
         layout.addWidget(self.mode_box.native)
         layout.addWidget(self.progress_bar)
@@ -450,6 +453,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self._closed = True
         self._cancel_because("the widget was closed")
         self.preview.close()
+        self.auto_window.close()
         self.sweep_label.disconnect()
         self.viewer.dims.events.current_step.disconnect(self._on_step)
 

@@ -3,6 +3,7 @@
 ::
 
     napari-labyrinth render INPUT... -o OUTPUT [options]
+    napari-labyrinth reproduce OUTPUT [--input INPUT]
     napari-labyrinth demo [-o DIR] [--overwrite]
     napari-labyrinth --version
 
@@ -15,7 +16,8 @@ zarr stores and large TIFF stacks are rendered lazily, block by block (see
 ``dask.distributed`` cluster (``--scheduler``).
 
 This module holds ``main``, the exit codes and what the commands share;
-``parser`` builds the arguments, ``render`` and ``demo`` run the commands.
+``parser`` builds the arguments, ``render``, ``reproduce`` and ``demo`` run
+the commands.
 """
 
 from __future__ import annotations
@@ -90,6 +92,8 @@ def _run(args) -> int:
     """Run the command the arguments name (its module is imported only now)."""
     if args.command == "render":
         from .render import render_command as command
+    elif args.command == "reproduce":
+        from .reproduce import reproduce_command as command
     else:
         from .demo import demo_command as command
     return command(args)

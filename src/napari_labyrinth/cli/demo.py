@@ -17,11 +17,12 @@ DEMO_STACK_PASSES = 4
 #: Width in pixels of the white band between the panels of the demo's comparison.
 SEPARATOR_WIDTH = 4
 
+#: Height in pixels of the band above each panel of the comparison that holds its label.
+LABEL_HEIGHT = 28
+
 
 def demo_command(args: argparse.Namespace) -> int:
     """Run ``napari-labyrinth demo``; the exit code."""
-    from ..api import labyrinth, labyrinth_stack
-    from ..io import write_image
     from ..samples import SAMPLES
 
     directory = Path(args.output)
@@ -50,22 +51,48 @@ def demo_command(args: argparse.Namespace) -> int:
         image = _to_uint8(SAMPLES[sample]())
         # The uint8 image is what is written and rendered, so that rendering
         # the written PNG with `napari-labyrinth render` gives the same result.
-        rendered = labyrinth(image)
-        stack = labyrinth_stack(image, passes=DEMO_STACK_PASSES)
-        comparison = _side_by_side([image, stack[1], stack[DEMO_STACK_PASSES]])
-        for path, data in (
-            (input_path, image),
-            (rendered_path, rendered),
-            (stack_path, stack),
-            (comparison_path, comparison),
+        if not _write(input_path, image, None, args.overwrite):
+            return EXIT_FAILED
+        # each rendering carries its provenance record, naming the input written above
+        rendered, single = _render(input_path, image, "single", {})
+        stack, stacked = _render(input_path, image, "stack", {"passes": DEMO_STACK_PASSES})
+        comparison = _side_by_side(
+            [image, stack[1], stack[DEMO_STACK_PASSES]],
+            ["input", "1 pass", f"{DEMO_STACK_PASSES} passes"],
+        )
+        for path, data, record in (
+            (rendered_path, rendered, single),
+            (stack_path, stack, stacked),
+            (comparison_path, comparison, None),
         ):
-            try:
-                write_image(path, data, overwrite=args.overwrite)
-            except (OSError, ValueError) as exc:
-                print_error(f"{path}: {describe(exc, path)}")
+            if not _write(path, data, record, args.overwrite):
                 return EXIT_FAILED
-            print(path.resolve(), flush=True)
     return EXIT_OK
+
+
+def _render(input_path: Path, image, mode: str, kwargs: dict):
+    """The rendering of ``image`` (read from ``input_path``) and its provenance record."""
+    from ..api import Result, labyrinth_steps
+    from .render import provenance_record
+
+    for event in labyrinth_steps(image, mode, **kwargs):
+        if isinstance(event, Result):
+            record = provenance_record(input_path, image, mode, kwargs, event.tone_limits)
+            return event.image, record
+    raise AssertionError("labyrinth_steps ends with a Result")
+
+
+def _write(path: Path, data, record, overwrite: bool) -> bool:
+    """Write ``data`` (with its record) and print its path; False after an error message."""
+    from ..io import ImageMetadata, write_image
+
+    try:
+        write_image(path, data, overwrite=overwrite, metadata=ImageMetadata(provenance=record))
+    except (OSError, ValueError) as exc:
+        print_error(f"{path}: {describe(exc, path)}")
+        return False
+    print(path.resolve(), flush=True)
+    return True
 
 
 def _to_uint8(image):
@@ -82,15 +109,31 @@ def _to_uint8(image):
     return np.rint(scaled * 255.0).astype(np.uint8)
 
 
-def _side_by_side(panels):
-    """uint8 panels of equal height in a row, separated by thin white bands."""
+def _side_by_side(panels, labels):
+    """uint8 panels of equal height in a row, separated by thin white bands, each under
+    its label."""
     import numpy as np
 
-    height = panels[0].shape[0]
-    band = np.full((height, SEPARATOR_WIDTH), 255, dtype=np.uint8)
+    panels = [_labelled(_to_uint8(panel), label) for panel, label in zip(panels, labels)]
+    band = np.full((panels[0].shape[0], SEPARATOR_WIDTH), 255, dtype=np.uint8)
     row = []
     for index, panel in enumerate(panels):
         if index:
             row.append(band)
-        row.append(_to_uint8(panel))
+        row.append(panel)
     return np.hstack(row)
+
+
+def _labelled(panel, label: str):
+    """A grey uint8 panel under a white band holding ``label`` in black, centred."""
+    import numpy as np
+    from PIL import Image, ImageDraw, ImageFont
+
+    band = Image.new("L", (panel.shape[1], LABEL_HEIGHT), 255)
+    draw = ImageDraw.Draw(band)
+    font = ImageFont.load_default(size=LABEL_HEIGHT * 2 // 3)
+    left, top, right, bottom = draw.textbbox((0, 0), label, font=font)
+    x = (panel.shape[1] - (right - left)) // 2 - left
+    y = (LABEL_HEIGHT - (bottom - top)) // 2 - top
+    draw.text((x, y), label, fill=0, font=font)
+    return np.vstack([np.asarray(band), panel])

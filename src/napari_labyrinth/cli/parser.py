@@ -12,6 +12,7 @@ import argparse
 import os
 from typing import Any
 
+from ..core.parameters import AUTO
 from . import PROG, UsageError, one_line
 from .demo import DEMO_STACK_PASSES
 
@@ -20,6 +21,7 @@ def build_parser() -> argparse.ArgumentParser:
     """The parser of ``napari-labyrinth`` and its ``render`` and ``demo`` commands."""
     from .. import __version__
     from ..core.presets import DEFAULT_PRESET
+    from .render import SCHEDULER_TIMEOUT
 
     parser = argparse.ArgumentParser(
         prog=PROG,
@@ -36,8 +38,10 @@ def build_parser() -> argparse.ArgumentParser:
             "Render image files (TIFF, PNG, JPEG, BMP) and zarr stores. Parameters not "
             f"given come from the preset (default {DEFAULT_PRESET!r}). The result keeps "
             "the input's shape and dtype; stacks and sweeps are written as TIFF or zarr. "
-            "zarr stores and TIFF stacks over 1 GiB are rendered block by block, in "
-            "bounded memory."
+            "Colour, OME axes and pixel sizes are read from the file and written back; "
+            "outputs are lossless (JPEG only with --lossy) and record how they were made "
+            "(see 'reproduce'). zarr stores and TIFF stacks over 1 GiB are rendered block "
+            "by block, in bounded memory."
         ),
     )
     render.set_defaults(command="render")
@@ -70,7 +74,49 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     render.add_argument(
+        "--scheduler-timeout",
+        type=_seconds,
+        metavar="SECONDS",
+        help=(
+            "how long to wait for the --scheduler to answer before failing "
+            f"(default {SCHEDULER_TIMEOUT:g})"
+        ),
+    )
+    render.add_argument(
         "--overwrite", action="store_true", help="replace existing files, inputs included"
+    )
+    render.add_argument(
+        "--lossy",
+        action="store_true",
+        help=(
+            "allow a lossy output format (.jpg): JPEG compression blurs the pixel-scale "
+            "texture; without it a .jpg output is refused, and a directory batch writes "
+            "JPEG inputs as PNG"
+        ),
+    )
+
+    reproduce = commands.add_parser(
+        "reproduce",
+        help="render an output again from its provenance record and compare bit for bit",
+        description=(
+            "Read the provenance record an output of 'render' carries (TIFF description or "
+            "OME annotation, PNG text chunk, zarr attributes), check that the input is the "
+            "file that was rendered (SHA-256), render it again with the recorded call and "
+            "compare the result with the output bit for bit. Exit code 0 if identical, 1 if "
+            "not."
+        ),
+    )
+    reproduce.set_defaults(command="reproduce")
+    reproduce.add_argument(
+        "output", metavar="OUTPUT", help="a file or .zarr store written by render"
+    )
+    reproduce.add_argument(
+        "--input",
+        metavar="INPUT",
+        help=(
+            "the input file (default: the recorded name, relative to the current directory, "
+            "then to OUTPUT's directory)"
+        ),
     )
 
     demo = commands.add_parser(
@@ -106,22 +152,18 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
     the table's one-line message.
     """
     from ..core.colour import COLOUR_MODES
-    from ..core.parameters import PARAMETERS, SWEEPABLE, format_value
+    from ..core.parameters import SWEEPABLE
     from ..core.presets import DEFAULT_PRESET, PRESETS
 
     render.add_argument(
         "--preset", choices=sorted(PRESETS), help=f"parameter set (default {DEFAULT_PRESET})"
     )
-    defaults = dict(PRESETS[DEFAULT_PRESET], seed=0)
     for name, parameter in SWEEPABLE.items():
-        default = f"default {format_value(defaults[name])}"
-        if name in PARAMETERS:
-            default += f" with the {DEFAULT_PRESET} preset"
         render.add_argument(
             _flag(name),
             dest=name,
             metavar=_metavar(parameter),
-            help=f"{parameter.tooltip} ({default})".replace("%", "%%"),
+            help=parameter_help(name).replace("%", "%%"),
         )
     render.add_argument(
         "--tone-limits",
@@ -135,10 +177,12 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
     )
     render.add_argument(
         "--channel-axis",
-        type=int,
-        metavar="A",
+        type=_channel_axis,
+        metavar="A|none",
         help=(
-            "axis of colour channels (default: -1 for RGB(A) PNG/JPEG/BMP files, none for TIFF)"
+            "axis of colour channels, or none (every axis but the last two holds planes); "
+            "default: what the file says (TIFF photometric RGB, the colour type of "
+            "PNG/JPEG/BMP files; none for OME channels and files without colour metadata)"
         ),
     )
     render.add_argument(
@@ -179,11 +223,43 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
     )
 
 
+def parameter_help(name: str) -> str:
+    """A parameter's help: the table's doc line, its default under the default preset, and
+    the paper's value (the seed has no paper value)."""
+    from ..core.parameters import PARAMETERS, SWEEPABLE, format_value
+    from ..core.presets import DEFAULT_PRESET, PRESETS
+
+    parameter = SWEEPABLE[name]
+    where = parameter.equation
+    if parameter.symbol:
+        where = f"{parameter.symbol} of {where}"
+    if name not in PARAMETERS:  # the seed
+        return f"{where}: {parameter.doc} (default 0)"
+    default = format_value(PRESETS[DEFAULT_PRESET][name])
+    paper = format_value(parameter.paper)
+    return (
+        f"{where}: {parameter.doc} "
+        f"(default {default} with the {DEFAULT_PRESET} preset; paper {paper})"
+    )
+
+
+def _channel_axis(text: str) -> int | str:
+    """``--channel-axis``: an integer, or ``none`` (no colour axis, whatever the file says)."""
+    if text.strip().lower() == "none":
+        return "none"
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer or none, got {text!r}") from None
+
+
 def _flag(name: str) -> str:
     return "--" + name.replace("_", "-")
 
 
 def _metavar(parameter) -> str:
+    if parameter.automatic:
+        return f"{parameter.symbol or 'X'}|{AUTO}"
     if parameter.kind == "choice":
         return "{" + ",".join(parameter.choices) + "}"
     return {
@@ -217,6 +293,17 @@ def _scheduler_address(text: str) -> str | int:
     return workers
 
 
+def _seconds(text: str) -> float:
+    """A positive, finite number of seconds (up to a day)."""
+    try:
+        seconds = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not 0 < seconds <= 86400:
+        raise argparse.ArgumentTypeError(f"expected 0 < SECONDS <= 86400, got {text}")
+    return seconds
+
+
 def _assignment(text: str) -> tuple[str, str]:
     """``NAME=VALUE`` (``--set``) or ``NAME=V1,V2,...`` (``--sweep``): the name and the text.
 
@@ -244,6 +331,7 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
     UsageError
         One line naming the parameter and what it expects.
     """
+    from ..core.parameters import without_auto
     from ..core.presets import DEFAULT_PRESET, resolve_parameters, resolve_sweep
     from ..core.tone_scale import validate_tone_limits
 
@@ -253,10 +341,10 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
         seed = options.pop("seed", None)
         if args.sweep is not None:
             name, values = _sweep_values(args, options)
-            resolve_sweep(preset, options, 0 if seed is None else seed, name, values)
+            resolve_sweep(preset, without_auto(options), 0 if seed is None else seed, name, values)
             options.update(parameter=name, values=values)
         else:
-            resolve_parameters(preset, **options)
+            resolve_parameters(preset, **without_auto(options))  # "auto": chosen per image
     except (ValueError, TypeError) as exc:
         raise UsageError(one_line(str(exc))) from None
     if args.preset is not None:

@@ -4,11 +4,19 @@ zarr stores and large TIFF stacks are rendered lazily, block by block, locally
 or on a ``dask.distributed`` cluster (``--scheduler``); other inputs in
 memory. In a batch a bad file is reported in one line and the others still
 render.
+
+Outputs are lossless unless ``--lossy`` says otherwise: a directory batch
+writes JPEG (and BMP, which holds no metadata) inputs as PNG, and an explicit
+``.jpg`` output is refused without ``--lossy``. The colour axis, axes and
+pixel sizes come from the input's own metadata (``io.read_metadata``) and are
+written back with the provenance record of the rendering
+(:mod:`napari_labyrinth.provenance`).
 """
 
 from __future__ import annotations
 
 import argparse
+import asyncio
 import contextlib
 import dataclasses
 import functools
@@ -31,11 +39,16 @@ from . import (
 )
 from .parser import render_options
 
-#: Formats read with imageio whose 3-D images are colour: channel_axis=-1 by default.
-_COLOUR_FORMATS = ("PNG", "JPEG", "BMP")
+#: Suffix a directory batch gives the rendering of an input in a lossy format, or in
+#: one that holds no provenance record.
+LOSSLESS_SUFFIX = ".png"
 
-#: Seconds to wait for a dask scheduler given by --scheduler.
-SCHEDULER_TIMEOUT = 10
+#: What the second progress bar counts: passes over a plane (in memory), or planes
+#: written (a lazy rendering, computed as it is written).
+PROGRESS_LABELS = {"pass": "passes", "plane": "planes written"}
+
+#: Seconds to wait for a dask scheduler given by --scheduler (--scheduler-timeout).
+SCHEDULER_TIMEOUT = 10.0
 
 
 @dataclasses.dataclass
@@ -58,12 +71,13 @@ def render_command(args: argparse.Namespace) -> int:
     _check_overwrites(jobs, overwrite=args.overwrite)
     if directory is not None:
         make_directory(directory)
-    with _scheduler(args.scheduler):
+    timeout = getattr(args, "scheduler_timeout", None) or SCHEDULER_TIMEOUT
+    with _scheduler(args.scheduler, timeout):
         return _render_jobs(jobs, args, options)
 
 
 @contextlib.contextmanager
-def _scheduler(address: str | int | None):
+def _scheduler(address: str | int | None, timeout: float = SCHEDULER_TIMEOUT):
     """Make a ``dask.distributed`` client the scheduler of dask for the run (None: local)."""
     if address is None:
         yield None
@@ -88,10 +102,10 @@ def _scheduler(address: str | int | None):
                 scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
             )
             client = Client(cluster)
-        elif os.path.isfile(address):
-            client = Client(scheduler_file=address, timeout=SCHEDULER_TIMEOUT)
         else:
-            client = Client(address, timeout=SCHEDULER_TIMEOUT)
+            client = Client(_answering_scheduler(address, timeout), timeout=timeout)
+    except Failed:
+        raise
     except Exception as exc:  # OSError, TimeoutError, ValueError for a bad address, ...
         if cluster is not None:
             cluster.close()
@@ -105,10 +119,69 @@ def _scheduler(address: str | int | None):
             cluster.close()
 
 
+def _answering_scheduler(address: str, timeout: float) -> str:
+    """The address of a dask scheduler that answers within ``timeout`` seconds.
+
+    ``address`` is an address or a scheduler file. A socket that accepts and
+    never answers, an HTTP server or a closed port fail after ``timeout``
+    seconds, where ``distributed.Client`` alone can wait forever.
+
+    Raises
+    ------
+    Failed
+        One line: what was tried and why it failed.
+    """
+    if os.path.isfile(address):
+        address = _scheduler_file_address(address)
+    _note(f"connecting to the dask scheduler at {address} (timeout {timeout:g} s)")
+    try:
+        reply = asyncio.run(asyncio.wait_for(_identity(address, timeout), timeout))
+    except (TimeoutError, asyncio.TimeoutError):
+        raise Failed(
+            f"--scheduler: no dask scheduler answered at {address} within {timeout:g} s "
+            "(--scheduler-timeout sets the wait)"
+        ) from None
+    except Exception as exc:  # OSError, ValueError for a bad address, a garbled reply
+        raise Failed(f"--scheduler: cannot connect to {address}: {describe(exc, '')}") from None
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        raise Failed(f"--scheduler: {address} answered, but not as a dask scheduler")
+    return address
+
+
+async def _identity(address: str, timeout: float):
+    """The scheduler's answer to an ``identity`` request."""
+    from distributed.comm import connect
+
+    comm = await connect(address, timeout=timeout)
+    try:
+        await comm.write({"op": "identity", "reply": True})
+        return await comm.read()
+    finally:
+        comm.abort()
+
+
+def _scheduler_file_address(path: str) -> str:
+    """The address a dask scheduler file holds (JSON with an ``"address"``)."""
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as file:
+            content = json.load(file)
+    except (OSError, ValueError) as exc:
+        raise Failed(
+            f"--scheduler: {path} is not a dask scheduler file (JSON with an \"address\"): "
+            f"{describe(exc, path)}"
+        ) from None
+    address = content.get("address") if isinstance(content, dict) else None
+    if not isinstance(address, str) or not address:
+        raise Failed(
+            f"--scheduler: {path} is not a dask scheduler file: it has no \"address\""
+        )
+    return address
+
+
 def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, Any]) -> int:
     from tqdm import tqdm
-
-    from ..lazy import ComputeError
 
     show = _isatty(sys.stderr)
     rendered: list[Path] = []
@@ -118,7 +191,7 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
     )
     planes_bar = tqdm(
         total=1,
-        desc="planes",
+        desc=PROGRESS_LABELS["pass"],
         unit="pass",
         file=sys.stderr,
         disable=not show,
@@ -127,6 +200,7 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
     )
 
     def progress(done: int, total: int, unit: str = "pass") -> None:
+        planes_bar.set_description_str(PROGRESS_LABELS[unit], refresh=False)
         planes_bar.unit = unit
         planes_bar.total = total
         planes_bar.n = done
@@ -140,18 +214,9 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
                 if job.error is not None:
                     raise _FileError(job.error)
                 _render_one(job, args, options, progress if show else None)
-            except (
-                _FileError,
-                OSError,
-                ValueError,
-                TypeError,
-                MemoryError,
-                ComputeError,
-            ) as exc:
+            except Exception as exc:  # noqa: BLE001 - one file's failure never stops a batch
                 failed.append(job.input)
-                tqdm.write(
-                    f"{PROG}: error: {job.input}: {describe(exc, job.input)}", file=sys.stderr
-                )
+                tqdm.write(f"{PROG}: error: {job.input}: {_failure(exc, job)}", file=sys.stderr)
             else:
                 rendered.append(job.output)
                 tqdm.write(str(job.output), file=sys.stdout)
@@ -163,9 +228,18 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
     return EXIT_FAILED if failed else EXIT_OK
 
 
+def _failure(exc: Exception, job: _Job) -> str:
+    """One line for a file that failed; errors nobody foresaw also name their type."""
+    from ..lazy import ComputeError
+
+    text = describe(exc, job.input)
+    foreseen = (_FileError, OSError, ValueError, TypeError, MemoryError, ComputeError)
+    return text if isinstance(exc, foreseen) else f"{type(exc).__name__}: {text}"
+
+
 def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
     """The jobs, and the output directory to create (None when writing one file)."""
-    from ..io import image_format, zarr_root
+    from ..io import FORMATS_WITHOUT_METADATA, LOSSY_FORMATS, image_format, zarr_root
 
     inputs = [Path(p) for p in args.inputs]
     output = Path(args.output)
@@ -189,6 +263,7 @@ def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
                 f"--{variant} writes a {variant} of images (more than 2-D); "
                 f"give a .tif or .zarr output, not {output.name}"
             )
+        _check_lossless(output, kind, args.lossy)
         return [_Job(inputs[0], output)], None
 
     if output.exists() and not output.is_dir():
@@ -206,9 +281,47 @@ def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
             stem, suffix = store.stem, store.suffix
         elif variant is not None and kind != "TIFF":
             suffix = ".tif"  # a stack or sweep does not fit in a PNG or JPEG
+        elif kind in LOSSY_FORMATS + FORMATS_WITHOUT_METADATA and not (
+            args.lossy and kind in LOSSY_FORMATS
+        ):
+            suffix = LOSSLESS_SUFFIX
         tail = f"_{variant}" if variant else ""
         jobs.append(_Job(path, output / f"{stem}_labyrinth{tail}{suffix}"))
+    _keep_apart(jobs)
     return jobs, output
+
+
+def _keep_apart(jobs: list[_Job]) -> None:
+    """Name a result after its input's suffix too where two results would share a name.
+
+    ``cells.jpg`` and ``cells.png`` both become PNG files: ``cells_jpg_labyrinth.png``
+    and ``cells_labyrinth.png``.
+    """
+    names: dict[str, int] = {}
+    for job in jobs:
+        if job.output is not None:
+            key = path_key(job.output)
+            names[key] = names.get(key, 0) + 1
+    for job in jobs:
+        if job.output is None or names[path_key(job.output)] < 2:
+            continue
+        if job.input.suffix.lower() != job.output.suffix.lower():
+            label = job.input.suffix.lstrip(".").lower()
+            rest = job.output.name[len(job.input.stem) :]
+            job.output = job.output.with_name(f"{job.input.stem}_{label}{rest}")
+
+
+def _check_lossless(output: Path, kind: str, lossy: bool) -> None:
+    """Refuse a lossy output format without --lossy; note a format without metadata."""
+    from ..io import FORMATS_WITHOUT_METADATA, LOSSY_FORMATS
+
+    if kind in LOSSY_FORMATS and not lossy:
+        raise UsageError(
+            f"{output}: {kind} is lossy: its compression blurs the pixel-scale texture; "
+            "write a .png or .tif file, or give --lossy"
+        )
+    if kind in FORMATS_WITHOUT_METADATA:
+        _note(f"{output}: {kind} holds no provenance record; 'reproduce' cannot check it")
 
 
 def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
@@ -248,7 +361,7 @@ def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
 
 
 def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], progress) -> None:
-    """Read, render and write one input.
+    """Read, render and write one input, with its metadata and provenance record.
 
     zarr stores, TIFF stacks over ``LAZY_TIFF_BYTES`` and, with --scheduler,
     every TIFF are opened lazily: the rendering is a dask array written block
@@ -260,20 +373,23 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     from .. import api
     from ..core.colour import luminance_for_limits, resolve_colour
     from ..core.planes import normalise_channel_axis, plane_axes
-    from ..io import image_format, open_image, release_files, write_array
+    from ..io import open_image, read_metadata, release_files, write_array
     from ..lazy import default_tone_limits, is_lazy, lazy_luminance
 
+    metadata = read_metadata(job.input)
+    channel_axis = input_channel_axis(metadata, args.channel_axis)
     lazy = True if args.scheduler is not None else None
-    image = open_image(job.input, lazy=lazy, channel_axis=args.channel_axis)
-    channel_axis = args.channel_axis
-    if (
-        channel_axis is None
-        and image_format(job.input) in _COLOUR_FORMATS
-        and image.ndim == 3
-        and image.shape[-1] in (2, 3, 4)
-    ):
-        channel_axis = -1
+    image = open_image(job.input, lazy=lazy, channel_axis=channel_axis)
+    if metadata.ambiguous and args.channel_axis is None:
+        *planes, rows, columns = image.shape
+        _note(
+            f"{job.input}: shape {tuple(image.shape)} has no colour metadata: read as "
+            f"{'x'.join(map(str, planes))} planes of {rows}x{columns} pixels; "
+            "--channel-axis -1 reads the last axis as RGB(A)"
+        )
     kwargs = dict(options, channel_axis=channel_axis)
+    if metadata.grey_alpha and channel_axis == -1:
+        kwargs["alpha"] = True  # the file says grey + alpha: alpha is kept, never rendered
     mode = "stack" if args.stack else "sweep" if "parameter" in options else "single"
     chunked = is_lazy(image)
     try:
@@ -293,11 +409,13 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
                 low, high = default_tone_limits(image, channel_axis)
             kwargs["tone_limits"] = (low, high)
             _note(f"{job.input}: tone limits {low!r} {high!r}")
+        _choose_auto_threshold(job, image, kwargs)
         for event in api.labyrinth_steps(image, mode, **kwargs):
             if isinstance(event, api.Result):
-                result = event.image
+                result, limits = event.image, event.tone_limits
             elif progress is not None:
                 progress(event.done, event.total)
+        record = provenance_record(job.input, image, mode, kwargs, limits)
         extra = 0 if mode == "single" else 1
         job.output.parent.mkdir(parents=True, exist_ok=True)
         write_array(
@@ -306,10 +424,70 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             overwrite=args.overwrite,
             plane_axes=plane_axes(image.ndim, channel_axis, extra),
             progress=functools.partial(progress, unit="plane") if chunked and progress else None,
+            metadata=metadata.for_output("Q" if extra else None, record),
         )
     finally:
         if chunked:
             release_files()
+
+
+def _choose_auto_threshold(job: _Job, image, kwargs: dict[str, Any]) -> None:
+    """``variance_threshold=auto``: choose V on this image (find_window) and report it."""
+    from ..core.parameters import is_auto
+    from ..window import window_for
+
+    if not is_auto(kwargs.get("variance_threshold")):
+        return
+    options = {k: v for k, v in kwargs.items() if k not in ("parameter", "values")}
+    window = window_for(image, **options)
+    kwargs["variance_threshold"] = window.best
+    _note(f"{job.input}: variance threshold auto: {window.summary()}")
+
+
+def input_channel_axis(metadata, given: int | str | None) -> int | None:
+    """The channel axis of an input: ``--channel-axis`` if given, else what the file says."""
+    if given == "none":
+        return None
+    return metadata.channel_axis if given is None else given
+
+
+def provenance_record(
+    path: Path, image, mode: str, kwargs: dict[str, Any], tone_limits
+) -> dict[str, Any]:
+    """The provenance record of the rendering of ``path`` with ``kwargs`` (API keywords)."""
+    from ..core.parameters import PARAMETERS
+    from ..core.presets import DEFAULT_PRESET, resolve_parameters
+    from ..provenance import call_arguments, file_checksum, input_record, make_record
+
+    preset = kwargs.get("preset", DEFAULT_PRESET)
+    overrides = {name: value for name, value in kwargs.items() if name in PARAMETERS}
+    parameters = resolve_parameters(preset, **overrides).as_dict()
+    seed = kwargs.get("seed", 0)
+    sweep = (kwargs["parameter"], kwargs["values"]) if mode == "sweep" else None
+    if tone_limits is None:
+        tone_limits = kwargs.get("tone_limits")
+    arguments = call_arguments(
+        preset=preset,
+        parameters=parameters,
+        seed=seed,
+        tone_limits=tone_limits,
+        channel_axis=kwargs.get("channel_axis"),
+        colour=kwargs.get("colour"),
+        alpha=kwargs.get("alpha"),
+        sweep=sweep,
+    )
+    source = input_record(path, image.shape, image.dtype, file_checksum(path))
+    return make_record(
+        mode=mode,
+        preset=preset,
+        overrides=overrides,
+        parameters=parameters,
+        seed=seed,
+        tone_limits=tone_limits,
+        arguments=arguments,
+        sweep=sweep,
+        source=source,
+    )
 
 
 def _note(message: str) -> None:

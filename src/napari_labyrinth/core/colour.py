@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from .tone_scale import ToneScale, resolve_tone_scale, validate_tone_limits
+from .tone_scale import ToneScale, representable, resolve_tone_scale, validate_tone_limits
 
 #: The ways of rendering an image with colour channels.
 COLOUR_MODES = {
@@ -201,10 +201,7 @@ def recolour(
             )
         factor = np.clip(np.minimum(factor, room.min(axis=-1, keepdims=True)), 0.0, None)
     result = new + difference * factor
-    if dtype.kind in "iu":
-        info = np.iinfo(dtype)
-        result = np.clip(np.rint(result), info.min, info.max)
-    return np.moveaxis(result.astype(dtype), -1, axis)
+    return np.moveaxis(representable(result, dtype), -1, axis)
 
 
 def write_changes(

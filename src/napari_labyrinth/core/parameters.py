@@ -25,11 +25,14 @@ import numpy as np
 from .codes import DIAGNOSTIC_FIELDS, OPTION_CODES
 
 __all__ = [
+    "AUTO",
     "DIAGNOSTIC_FIELDS",
     "PARAMETERS",
     "PARAMETER_NAMES",
+    "PLANE_OFFSET",
     "SEED",
     "SWEEPABLE",
+    "WORKERS",
     "LabyrinthParameters",
     "Parameter",
     "equal_tone_ranges",
@@ -39,6 +42,10 @@ __all__ = [
 #: Default lower limit L_inf^1 of the first tone range ("a low value different
 #: from zero", Sec. 2); the last range ends at 255.
 LOWEST_TONE = 10.0
+
+#: The value of a parameter with ``automatic=True`` that asks for it to be
+#: chosen from the image (``napari_labyrinth.find_window`` for V).
+AUTO = "auto"
 
 #: Words a boolean may be typed as.
 _BOOLEAN_WORDS = {"true": True, "yes": True, "1": True, "false": False, "no": False, "0": False}
@@ -74,15 +81,19 @@ class Parameter:
         The paper's equation it belongs to (``"Eq. 4"``), or its section.
     doc : str
         One line: what it means.
-    low, high : int or float or None
-        Inclusive bounds of a number (of the count, for ``tone_ranges``);
-        None: unbounded (floats must still be finite).
+    low, high : int or float
+        Inclusive bounds of a number (of the count, for ``tone_ranges``):
+        every number has both, so that no value can reach an allocation,
+        the kernel's integer types or a compilation unchecked.
     choices : tuple of str, optional
         The options of a ``"choice"``.
     reading : bool
         A point the paper leaves open (the widget's advanced section).
     symbol : str, optional
         The paper's letter, in layer names (``"V"``).
+    automatic : bool
+        Whether the value may be ``AUTO``: chosen from the image before the
+        rendering (never by :func:`make_parameters`, which needs a number).
     """
 
     name: str
@@ -96,12 +107,15 @@ class Parameter:
     choices: tuple[str, ...] | None = None
     reading: bool = False
     symbol: str | None = None
+    automatic: bool = False
 
     @property
     def type_text(self) -> str:
         """The type as numpydoc writes it in a Parameters section."""
         if self.kind == "choice":
             return "{" + ", ".join(f'"{choice}"' for choice in self.choices) + "}"
+        if self.automatic:
+            return f'{self.kind} or "{AUTO}"'
         return {
             "float": "float",
             "int": "int",
@@ -119,10 +133,9 @@ class Parameter:
         if self.kind == "bool":
             return "True or False"
         if self.low is not None and self.high is not None:
-            high = "2**64 - 1" if self.kind == "seed" else f"{self.high:g}"
-            return f"between {self.low:g} and {high}"
+            return f"between {_bound_text(self.low)} and {_bound_text(self.high)}"
         if self.low is not None:
-            return f">= {self.low:g}"
+            return f">= {_bound_text(self.low)}"
         return "any value"
 
     @property
@@ -148,6 +161,8 @@ class Parameter:
             Naming the parameter and what it expects.
         """
         text = text.strip()
+        if self.automatic and text.lower() == AUTO:
+            return AUTO
         if self.kind == "tones":
             raise ValueError(
                 f"{self.name} cannot be given as text: set tone_ranges (its tones follow), "
@@ -185,6 +200,22 @@ class Parameter:
         }.get(self.kind) or " or ".join(self.choices)
 
 
+def _bound_text(value: float) -> str:
+    """A bound in words: ``2**63 - 1`` for the largest 64-bit integer, ``1e+06``, ``0.5``."""
+    if value == _INT64_MAX:
+        return "2**63 - 1"
+    return f"{value:g}"
+
+
+#: Largest signed 64-bit integer: the kernel's plane index and the widget's spin
+#: boxes hold no more, so the seed and the plane offset stop there.
+_INT64_MAX = 2**63 - 1
+
+#: Largest value of a threshold: far beyond any useful one (Eq. 2 and 4 compare
+#: ratios of tones on the 0-255 scale), small enough for every form and float32.
+_THRESHOLD_MAX = 1e6
+
+
 def _entry(**spec: Any) -> Any:
     """A dataclass field carrying its table entry (the name is filled in below)."""
     return dataclasses.field(metadata={"parameter": Parameter(name="", **spec)})
@@ -200,6 +231,7 @@ class LabyrinthParameters:
         kind="float",
         paper=0.12,
         low=0.0,
+        high=_THRESHOLD_MAX,
         label="mean threshold t",
         symbol="t",
         equation="Eq. 2",
@@ -209,13 +241,16 @@ class LabyrinthParameters:
         kind="float",
         paper=0.50,
         low=0.0,
+        high=_THRESHOLD_MAX,
         label="variance threshold V",
         symbol="V",
         equation="Eq. 4",
         doc=(
             "where the variance ratio R2 exceeds V, g is left as it is (or pushed away "
-            "from M); the labyrinth appears only in a narrow range of V (Fig. 3)"
+            "from M); the labyrinth appears only in a narrow range of V (Fig. 3); "
+            "'auto' measures that range on the image and takes its best V"
         ),
+        automatic=True,
     )
     tone_ranges: tuple[float, ...] = _entry(
         kind="tone_ranges",
@@ -352,13 +387,43 @@ SEED = Parameter(
     kind="seed",
     paper=None,
     low=0,
-    high=2**64 - 1,
+    high=_INT64_MAX,
     label="seed",
     equation="Eq. 3",
     doc=(
         "Seed of the random draws R: the result is a pure function of the image, the "
         "parameters and the seed"
     ),
+)
+
+#: The random stream index of an image's first plane in a larger stack it was taken
+#: from (a rendering option, beside the parameters); with the planes after it, it must
+#: stay within the kernel's 64-bit plane index.
+PLANE_OFFSET = Parameter(
+    name="plane_offset",
+    kind="int",
+    paper=0,
+    low=0,
+    high=_INT64_MAX,
+    label="plane offset",
+    equation="Eq. 3",
+    doc=(
+        "Flat index of the image's first plane in a larger stack: plane k draws the "
+        "random stream of plane plane_offset + k"
+    ),
+)
+
+#: Threads of a run (a rendering option): at least one, at most a generous multiple
+#: of any machine's cores (each thread holds a plane's work arrays).
+WORKERS = Parameter(
+    name="workers",
+    kind="int",
+    paper=None,
+    low=1,
+    high=1024,
+    label="workers",
+    equation="Sec. 2",
+    doc="Threads that render planes (or a checkerboard plane's bands) at once",
 )
 
 #: What a sweep may vary: every parameter that has a value in one word, and the seed.
@@ -392,6 +457,20 @@ def equal_tone_ranges(count: int) -> tuple[float, ...]:
     return tuple(float(v) for v in np.linspace(LOWEST_TONE, 255.0, count + 1))
 
 
+def is_auto(value: Any) -> bool:
+    """Whether ``value`` asks for a parameter to be chosen from the image."""
+    return isinstance(value, str) and value == AUTO
+
+
+def without_auto(values: Mapping[str, Any]) -> dict[str, Any]:
+    """``values`` without the parameters set to ``AUTO`` (to validate the others first)."""
+    return {
+        name: value
+        for name, value in values.items()
+        if not (name in PARAMETERS and PARAMETERS[name].automatic and is_auto(value))
+    }
+
+
 def make_parameters(**values: Any) -> LabyrinthParameters:
     """Validate ``values`` and build a :class:`LabyrinthParameters`.
 
@@ -423,8 +502,15 @@ def _is_real(value: Any) -> bool:
 
 
 def _float(parameter: Parameter, value: Any) -> float:
+    if parameter.automatic and is_auto(value):
+        raise ValueError(
+            f"{parameter.name}={AUTO!r} is chosen from the image: pass the image to "
+            "labyrinth() or find_window() rather than building parameters without it"
+        )
+    value = _scalar(value)
     if not _is_real(value):
-        raise TypeError(f"{parameter.name} must be a real number, got {value!r}")
+        also = f" or {AUTO!r}" if parameter.automatic else ""
+        raise TypeError(f"{parameter.name} must be a real number{also}, got {value!r}")
     value = float(value)
     in_bounds = (parameter.low is None or value >= parameter.low) and (
         parameter.high is None or value <= parameter.high
@@ -437,6 +523,7 @@ def _float(parameter: Parameter, value: Any) -> float:
 
 
 def _integer(parameter: Parameter, value: Any) -> int:
+    value = _scalar(value)
     if not _is_integer(value):
         raise TypeError(f"{parameter.name} must be an integer, got {value!r}")
     value = int(value)
@@ -468,14 +555,33 @@ def _tone(name: str, value: Any) -> float:
     return value
 
 
+def _is_sequence(value: Any) -> bool:
+    """Whether ``value`` is a sequence of values (a 0-d array, a string or a number is not)."""
+    if isinstance(value, (str, bytes)):
+        return False
+    try:
+        len(value)
+    except TypeError:  # numbers, 0-d arrays
+        return False
+    return True
+
+
+def _scalar(value: Any) -> Any:
+    """The number a 0-d array holds; any other value as it is."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        return value[()]
+    return value
+
+
 def _tone_ranges(parameter: Parameter, value: Any) -> tuple[float, ...]:
+    value = _scalar(value)
     if _is_integer(value):
         if not parameter.low <= value <= parameter.high:
             raise ValueError(
                 f"tone_ranges as a count must be {parameter.bounds_text}, got {value}"
             )
         return equal_tone_ranges(int(value))
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+    if not _is_sequence(value):
         raise TypeError(
             f"tone_ranges must be a count of ranges or a sequence of limits, got {value!r}"
         )
@@ -490,7 +596,7 @@ def _tone_ranges(parameter: Parameter, value: Any) -> tuple[float, ...]:
 def _tones(value: Any, limits: tuple[float, ...]) -> tuple[tuple[float, float], ...]:
     if value is None:
         return tuple(zip(limits[:-1], limits[1:]))
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+    if not _is_sequence(value):
         raise TypeError(f"tones must be a sequence of (T_inf, T_sup) pairs, got {value!r}")
     if len(value) != len(limits) - 1:
         raise ValueError(
@@ -499,7 +605,7 @@ def _tones(value: Any, limits: tuple[float, ...]) -> tuple[tuple[float, float], 
         )
     pairs = []
     for pair in value:
-        if isinstance(pair, (str, bytes)) or not hasattr(pair, "__len__") or len(pair) != 2:
+        if not _is_sequence(pair) or len(pair) != 2:
             raise ValueError(f"tones must be (T_inf, T_sup) pairs, got {pair!r}")
         low, high = _tone("tones", pair[0]), _tone("tones", pair[1])
         if high < low:

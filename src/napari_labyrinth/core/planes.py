@@ -4,7 +4,8 @@ One place for the layout of an image (as scikit-image keeps
 ``channel_as_last_axis`` in one place): every axis before the last two
 spatial axes holds independent planes (time, z), the colour axis
 (``channel_axis``) holds one plane per channel, and with 4 channels the last
-is alpha, which is never rendered. Plane k of an image draws the random
+is alpha, which is never rendered (``alpha`` says so for other channel counts: a
+grey + alpha PNG has 2). Plane k of an image draws the random
 stream of plane ``plane_offset + k``, k being the flat index of the plane
 among the leading axes with the colour axis last, so that a part of a stack
 renders exactly as it does within the whole. An RGB(A) image rendered in its
@@ -24,12 +25,13 @@ from typing import Any
 import numpy as np
 
 from .colour import resolve_colour
+from .parameters import PLANE_OFFSET
 
-#: Number of channels that makes the last channel alpha.
+#: Number of channels that makes the last channel alpha by default (RGBA).
 RGBA_CHANNELS = 4
 
 #: Largest plane offset (the random stream index of a plane is a 64-bit integer).
-MAX_PLANE_OFFSET = 2**63 - 1
+MAX_PLANE_OFFSET = PLANE_OFFSET.high
 
 
 def normalise_channel_axis(channel_axis: Any, ndim: int) -> int | None:
@@ -62,12 +64,49 @@ def validate_shape(shape: Sequence[int]) -> None:
 
 
 def validate_plane_offset(plane_offset: Any) -> int:
-    """``plane_offset`` checked: an integer from 0 to ``MAX_PLANE_OFFSET``."""
-    if not isinstance(plane_offset, numbers.Integral) or isinstance(plane_offset, bool):
-        raise TypeError(f"plane_offset must be an integer, got {plane_offset!r}")
-    if not 0 <= plane_offset <= MAX_PLANE_OFFSET:
-        raise ValueError(f"plane_offset must be between 0 and 2**63 - 1, got {plane_offset}")
-    return int(plane_offset)
+    """``plane_offset`` checked: an integer from 0 to ``MAX_PLANE_OFFSET`` (the table's)."""
+    return PLANE_OFFSET.validate(plane_offset)
+
+
+def validate_stream_range(plane_offset: int, n_planes: int) -> None:
+    """Refuse a ``plane_offset`` whose last plane's stream index passes ``MAX_PLANE_OFFSET``.
+
+    Raises
+    ------
+    ValueError
+        Naming ``plane_offset`` and the largest one these planes allow.
+    """
+    largest = MAX_PLANE_OFFSET - (n_planes - 1)
+    if plane_offset > largest:
+        raise ValueError(
+            f"plane_offset must be between 0 and {largest} for an image of {n_planes} "
+            f"planes (the last plane's stream index must stay <= 2**63 - 1), "
+            f"got {plane_offset}"
+        )
+
+
+def resolve_alpha(alpha: Any, shape: Sequence[int], channel_axis: int | None) -> bool:
+    """Whether the last channel along ``channel_axis`` is alpha (kept, never rendered).
+
+    ``None``: only an image of 4 channels (RGBA) has one. ``True`` needs a
+    colour axis of at least 2 channels (grey + alpha has 2).
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``alpha``.
+    """
+    if alpha is not None and not isinstance(alpha, (bool, np.bool_)):
+        raise TypeError(f"alpha must be True, False or None, got {alpha!r}")
+    channels = None if channel_axis is None else int(shape[channel_axis])
+    if alpha is None:
+        return channels == RGBA_CHANNELS
+    if alpha and (channels is None or channels < 2):
+        what = "no channel_axis" if channels is None else f"{channels} channel"
+        raise ValueError(
+            f"alpha=True needs a channel_axis of at least 2 channels (colour + alpha), got {what}"
+        )
+    return bool(alpha)
 
 
 def spatial_axes(ndim: int, channel_axis: int | None) -> tuple[int, int]:
@@ -89,14 +128,42 @@ def plane_axes(ndim: int, channel_axis: int | None, extra: int = 0) -> tuple[int
     return tuple(sorted(extra + axis for axis in axes))
 
 
-def without_alpha(image: Any, channel_axis: int | None) -> Any:
+def resolve_layout_colour(
+    colour: Any, shape: Sequence[int], channel_axis: int | None, alpha: Any = None
+) -> str:
+    """:func:`core.colour.resolve_colour` for an image whose alpha may not be the 4th channel.
+
+    The luminance mode renders R, G, B and keeps a 4th channel as alpha; an
+    ``alpha`` that differs from that (grey + alpha, RGB without alpha but
+    alpha=True, 4 channels without alpha) renders channels independently by
+    default, and refuses ``colour="luminance"``.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``colour`` or ``alpha``.
+    """
+    has_alpha = resolve_alpha(alpha, shape, channel_axis)
+    channels = None if channel_axis is None else int(shape[channel_axis])
+    if has_alpha == (channels == RGBA_CHANNELS):  # alpha where the luminance mode has it
+        return resolve_colour(colour, shape, channel_axis)
+    if colour != "luminance":  # checks an unknown colour too
+        return resolve_colour("channels" if colour is None else colour, shape, channel_axis)
+    raise ValueError(
+        f"colour='luminance' needs R, G, B (and alpha as a 4th channel); alpha={alpha!r} "
+        f"with {channels} channels leaves {channels - has_alpha} colour channel(s): "
+        "use colour='channels'"
+    )
+
+
+def without_alpha(image: Any, channel_axis: int | None, alpha: bool | None = None) -> Any:
     """``image`` without its alpha channel (a view; the image itself if it has none)."""
     if channel_axis is None:
         return image
     axis = channel_axis % image.ndim
-    if image.shape[axis] != RGBA_CHANNELS:
+    if not resolve_alpha(alpha, image.shape, axis):
         return image
-    return image[(slice(None),) * axis + (slice(0, RGBA_CHANNELS - 1),)]
+    return image[(slice(None),) * axis + (slice(0, image.shape[axis] - 1),)]
 
 
 def first_plane_index(
@@ -122,6 +189,7 @@ def step_count(
     channel_axis: int | None,
     passes: Sequence[int] | int,
     colour: str | None = None,
+    alpha: bool | None = None,
 ) -> int:
     """Progress steps of rendering an image of ``shape``: rendered planes × passes.
 
@@ -131,8 +199,8 @@ def step_count(
     the default for 3 or 4 channels) one plane is rendered per position, not
     one per channel.
     """
-    layout = PlaneLayout(tuple(shape), normalise_channel_axis(channel_axis, len(shape)))
-    if resolve_colour(colour, layout.shape, layout.channel_axis) == "luminance":
+    layout = PlaneLayout(tuple(shape), normalise_channel_axis(channel_axis, len(shape)), alpha=alpha)
+    if resolve_layout_colour(colour, layout.shape, layout.channel_axis, alpha) == "luminance":
         layout = layout.luminance_layout()
     total_passes = passes if isinstance(passes, numbers.Integral) else sum(passes)
     return layout.n_rendered * int(total_passes)
@@ -154,6 +222,9 @@ class PlaneLayout:
         For a block of a larger array: where the block's leading axes start
         in it, and the array's leading shape (its planes' stream indices
         follow the whole array).
+    alpha : bool, optional
+        Whether the last channel is alpha (see :func:`resolve_alpha`; None:
+        with 4 channels).
     """
 
     shape: tuple[int, ...]
@@ -161,6 +232,7 @@ class PlaneLayout:
     plane_offset: int = 0
     leading_origin: tuple[int, ...] | None = None
     leading_total: tuple[int, ...] | None = None
+    alpha: bool | None = None
 
     @property
     def leading_shape(self) -> tuple[int, ...]:
@@ -182,18 +254,19 @@ class PlaneLayout:
 
     @property
     def has_alpha(self) -> bool:
-        return self.channel_axis is not None and self.shape[self.channel_axis] == RGBA_CHANNELS
+        return resolve_alpha(self.alpha, self.shape, self.channel_axis)
 
     @property
     def n_rendered(self) -> int:
         """Planes the kernel renders: every plane but alpha."""
         if self.has_alpha:
-            return self.n_planes // RGBA_CHANNELS * (RGBA_CHANNELS - 1)
+            channels = self.shape[self.channel_axis]
+            return self.n_planes // channels * (channels - 1)
         return self.n_planes
 
     def is_alpha(self, index: tuple[int, ...]) -> bool:
         """Whether the plane at ``index`` (of :meth:`to_planes`) is an alpha channel."""
-        return self.has_alpha and index[-1] == RGBA_CHANNELS - 1
+        return self.has_alpha and index[-1] == self.shape[self.channel_axis] - 1
 
     def rendered_indices(self) -> Iterator[tuple[int, ...]]:
         """Indices (of :meth:`to_planes`) of the planes to render, in stream order."""
@@ -225,6 +298,7 @@ class PlaneLayout:
             plane_offset=self.plane_offset,
             leading_origin=self.leading_origin or (0,) * len(leading),
             leading_total=self.leading_total or leading,
+            alpha=False,
         )
 
     def to_planes(self, array):

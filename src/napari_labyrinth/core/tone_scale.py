@@ -78,11 +78,7 @@ class ToneScale:
     def from_tones(self, tones: np.ndarray, dtype: np.dtype) -> np.ndarray:
         """Values of ``dtype`` for ``tones``: rounded and clipped for integers."""
         values = tones.astype(np.float64) / self._gain + self.low
-        dtype = np.dtype(dtype)
-        if dtype.kind in "iu":
-            info = np.iinfo(dtype)
-            values = np.clip(np.rint(values), info.min, info.max)
-        return values.astype(dtype)
+        return representable(values, np.dtype(dtype))
 
 
 def validate_tone_limits(tone_limits: Any) -> tuple[float, float]:
@@ -95,7 +91,7 @@ def validate_tone_limits(tone_limits: Any) -> tuple[float, float]:
     """
     if (
         isinstance(tone_limits, (str, bytes))
-        or not hasattr(tone_limits, "__len__")
+        or not _has_length(tone_limits)
         or len(tone_limits) != 2
     ):
         raise TypeError(f"tone_limits must be None or (low, high), got {tone_limits!r}")
@@ -115,16 +111,58 @@ def resolve_tone_scale(values: np.ndarray, tone_limits: tuple[float, float] | No
     the finite values otherwise. A constant image gets a unit-wide scale.
     """
     if tone_limits is not None:
-        return ToneScale(*validate_tone_limits(tone_limits))
+        return ToneScale(*_finite_span(*validate_tone_limits(tone_limits), given=True))
     if values.dtype == np.uint8:
         return ToneScale(0.0, 255.0)
     finite = values if values.dtype.kind in "iu" else values[np.isfinite(values)]
     if finite.size == 0:
         return ToneScale(0.0, 1.0)
     low, high = default_percentiles(finite)
-    if not high > low:
-        high = low + 1.0
-    return ToneScale(low, high)
+    return ToneScale(*_finite_span(*separated_limits(low, high), given=False))
+
+
+def separated_limits(low: float, high: float) -> tuple[float, float]:
+    """Tone limits of a constant image (``high <= low``) made a usable scale.
+
+    ``high = low + 1``, or one float64 step above ``low`` where 1 is below
+    that step (``|low| >= 2**53``, where ``low + 1`` rounds to ``low``);
+    below ``low`` for the largest float64.
+    """
+    if high > low:
+        return low, high
+    step = max(1.0, math.ulp(low))
+    if math.isfinite(low + step):
+        return low, low + step
+    return low - step, low
+
+
+def _finite_span(low: float, high: float, *, given: bool) -> tuple[float, float]:
+    """``(low, high)``, refused when ``high - low`` overflows float64 (the gain would be 0)."""
+    if not math.isfinite(high - low):
+        what = "tone_limits" if given else "the default tone limits (percentiles) of image"
+        raise ValueError(
+            f"{what} ({low!r}, {high!r}) span more than the largest float64: "
+            "pass tone_limits that differ by less than 1.7e308"
+        )
+    return low, high
+
+
+def _has_length(value: Any) -> bool:
+    try:
+        len(value)
+    except TypeError:  # numbers, 0-d arrays
+        return False
+    return True
+
+
+def representable(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """float64 ``values`` as ``dtype``: rounded and clipped to its range (integers), or
+    clipped to its finite range (floats: tone limits beyond float16's make no inf)."""
+    if dtype.kind in "iu":
+        info = np.iinfo(dtype)
+        return np.clip(np.rint(values), info.min, info.max).astype(dtype)
+    limit = float(np.finfo(dtype).max)
+    return np.clip(values, -limit, limit).astype(dtype)
 
 
 def default_percentiles(values: np.ndarray) -> list[float]:

@@ -1,0 +1,192 @@
+"""What a run can afford: the memory an image declares against the memory available.
+
+A file's header says how many pixels it holds before a single pixel is read,
+and a 76 KB compressed TIFF can declare 100000 x 100000 of them. Before an
+image is read (``io``) or its planes are rendered lazily (``lazy``), the
+memory that rendering needs is estimated from the declared shape and dtype
+and compared with what the machine has available; an image that cannot fit
+is refused with one line saying how big it is and what to do, instead of
+being read until the machine swaps or the process is killed.
+
+The limit is the memory available now (``MemAvailable`` on Linux, psutil
+elsewhere), or the environment variable ``NAPARI_LABYRINTH_MEMORY`` (bytes, or
+a number with a unit: ``512M``, ``8G``, ``1.5GiB``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+#: Environment variable that sets the memory a run may use (overrides what is available).
+MEMORY_ENV = "NAPARI_LABYRINTH_MEMORY"
+
+#: Bytes of work per pixel of the plane being rendered: float32 tones before and
+#: after the pass, the mask of changed tones, and float64 values of the changes.
+WORK_BYTES_PER_PIXEL = 4 + 4 + 1 + 8
+
+#: Memory assumed when the machine does not say (no /proc/meminfo, no psutil).
+FALLBACK_MEMORY = 4 << 30
+
+_UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
+
+
+class MemoryBudgetError(ValueError):
+    """An image that needs more memory than the run may use (one line)."""
+
+
+def parse_size(text: str) -> int:
+    """Bytes of ``"8G"``, ``"512M"``, ``"1.5GiB"``, ``"1000000"`` (binary units).
+
+    Raises
+    ------
+    ValueError
+        Naming ``NAPARI_LABYRINTH_MEMORY`` and the forms it takes.
+    """
+    match = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*([kmgt]?)(i?b)?\s*", text.lower())
+    if match is None:
+        raise ValueError(
+            f"{MEMORY_ENV} must be a size such as 512M, 8G or 1.5GiB, got {text!r}"
+        )
+    number, unit = float(match.group(1)), match.group(2)
+    return int(number * _UNITS[unit])
+
+
+def memory_limit() -> int:
+    """Bytes a run may use: ``NAPARI_LABYRINTH_MEMORY`` if set, else the memory available."""
+    text = os.environ.get(MEMORY_ENV, "").strip()
+    if text:
+        return parse_size(text)
+    return available_memory()
+
+
+def available_memory() -> int:
+    """Memory available to a new allocation without swapping (bytes), as the OS says."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import psutil
+
+        return int(psutil.virtual_memory().available)
+    except Exception:  # noqa: BLE001 - psutil missing or unable to tell
+        return FALLBACK_MEMORY
+
+
+def render_bytes(shape: Sequence[int], dtype: np.dtype, planes: int | None = None) -> int:
+    """Bytes, about, to render an image of ``shape`` held in memory.
+
+    The image and its result (``planes`` of its planes, default all of them)
+    and the work arrays of one plane (``WORK_BYTES_PER_PIXEL``); a plane is
+    the last two axes, or the two before a trailing colour axis of at most 4.
+    """
+    shape = tuple(int(n) for n in shape)
+    plane = shape[-3:-1] if len(shape) >= 3 and shape[-1] <= 4 else shape[-2:]
+    plane_pixels = math.prod(plane)
+    per_plane = math.prod(shape) // max(plane_pixels, 1)
+    held = planes * plane_pixels * per_plane if planes is not None else math.prod(shape)
+    return 2 * held * np.dtype(dtype).itemsize + WORK_BYTES_PER_PIXEL * plane_pixels
+
+
+def refusal(shape: Sequence[int], dtype: np.dtype, *, what: str = "it", planes=None) -> str | None:
+    """Why an image of ``shape`` and ``dtype`` cannot be rendered here, or None if it can.
+
+    ``planes``: how many planes are held at once (None: all; 1 for a lazy
+    image rendered plane by plane).
+    """
+    needed = render_bytes(shape, dtype, planes)
+    limit = memory_limit()
+    if needed <= limit:
+        return None
+    dims = " x ".join(str(int(n)) for n in shape)
+    size = _bytes_text(math.prod(int(n) for n in shape) * np.dtype(dtype).itemsize)
+    return (
+        f"{what} declares {dims} {np.dtype(dtype).name} pixels ({size}); rendering "
+        f"needs about {_bytes_text(needed)}, more than the {_bytes_text(limit)} this run "
+        f"may use: crop or downsample it, store it as a zarr store or TIFF stack of smaller "
+        f"planes (rendered plane by plane), or set {MEMORY_ENV} to allow more"
+    )
+
+
+def refuse_unaffordable(
+    name: str, shape: Sequence[int], dtype: np.dtype, *, planes=None, what: str = "it"
+) -> None:
+    """Raise :class:`MemoryBudgetError` naming ``name`` if :func:`refusal` gives a reason."""
+    reason = refusal(shape, dtype, what=what, planes=planes)
+    if reason is not None:
+        raise MemoryBudgetError(f"{name}: {reason}")
+
+
+def declared_refusal(path: Path, kind: str) -> str | None:
+    """Why the image file at ``path`` cannot be read into memory here, from its header alone.
+
+    ``kind`` is the format (``"TIFF"``, ``"PNG"``, ``"JPEG"``, ``"BMP"``). A
+    header that cannot be parsed gives None: the reader then says what is
+    wrong with the file.
+    """
+    declared = _declared(path, kind)
+    if declared is None:
+        return None
+    return refusal(*declared)
+
+
+def _declared(path: Path, kind: str) -> tuple[tuple[int, ...], np.dtype] | None:
+    """Shape and dtype the file's header declares, without decoding pixels."""
+    try:
+        if kind == "TIFF":
+            import tifffile
+
+            with tifffile.TiffFile(path) as tiff:
+                series = tiff.series[0]
+                return tuple(series.shape), np.dtype(series.dtype)
+        with pillow_header(path) as image:
+            width, height = image.size
+            bands = len(image.getbands())
+            dtype = _PIL_DTYPES.get(image.mode.split(";")[0], np.uint8)
+            if image.mode.startswith("I;16"):
+                dtype = np.uint16
+            shape = (height, width) if bands == 1 else (height, width, bands)
+            return shape, np.dtype(dtype)
+    except Exception:  # noqa: BLE001 - a bad header is the reader's to report
+        return None
+
+
+_PIL_DTYPES = {"I": np.int32, "F": np.float32}
+
+
+def pillow_header(path: Path):
+    """The image at ``path`` opened by Pillow for its header, even past Pillow's own limit.
+
+    ``Image.open`` refuses more than twice ``Image.MAX_IMAGE_PIXELS`` with a
+    message about attacks; the format classes themselves read the header
+    without that check, so that the size can be reported as for any image.
+    """
+    from PIL import BmpImagePlugin, Image, JpegImagePlugin, PngImagePlugin
+
+    try:
+        return Image.open(path)
+    except Image.DecompressionBombError:
+        pass
+    for opener in (PngImagePlugin.PngImageFile, JpegImagePlugin.JpegImageFile,
+                   BmpImagePlugin.BmpImageFile):
+        try:
+            return opener(path)
+        except Exception:  # noqa: BLE001 - not this format
+            continue
+    raise ValueError("no header Pillow can read")
+
+
+def _bytes_text(size: int) -> str:
+    for unit, scale in (("TiB", 1 << 40), ("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
+        if size >= scale:
+            return f"{size / scale:.1f} {unit}"
+    return f"{size} B"

@@ -1,0 +1,95 @@
+"""``napari-labyrinth reproduce``: render an output again from its record, compare bit for bit."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from . import EXIT_FAILED, EXIT_OK, PROG, Failed, describe
+
+
+def reproduce_command(args: argparse.Namespace) -> int:
+    """Run ``napari-labyrinth reproduce``; the exit code (0: identical, 1: not)."""
+    import numpy as np
+
+    from .. import __version__, api
+    from ..io import open_image, read_image, read_provenance
+    from ..lazy import computing, is_lazy
+    from ..provenance import file_checksum, reproduce_call
+
+    output = Path(args.output)
+    try:
+        record = read_provenance(output)
+    except (OSError, ValueError) as exc:
+        raise Failed(f"{output}: {describe(exc, output)}") from None
+    source = record["input"]
+    path = find_input(output, source, args.input)
+    checksum = file_checksum(path)
+    if source.get("sha256") not in (None, checksum):
+        raise Failed(
+            f"{path}: not the file that was rendered (SHA-256 {checksum[:12]}..., "
+            f"recorded {source['sha256'][:12]}...)"
+        )
+    mode, arguments = reproduce_call(record)
+    try:
+        image = open_image(path, lazy=None, channel_axis=arguments.get("channel_axis"))
+        for event in api.labyrinth_steps(image, mode, **arguments):
+            if isinstance(event, api.Result):
+                again = event.image
+        if is_lazy(again):
+            with computing():
+                again = again.compute()
+        written = read_image(output)
+    except (OSError, ValueError, TypeError) as exc:
+        raise Failed(f"{output}: {describe(exc, output)}") from None
+    again = np.asarray(again)
+    versions = f"recorded by {record['version']}, rendered by {__version__}"
+    what = f"{mode} of {path} ({record['function']}, preset {record['preset']}, seed "
+    what += f"{record['seed']}; {versions})"
+    if identical(written, again):
+        print(
+            f"{output}: identical bit for bit to a new rendering: {what}; "
+            f"shape {tuple(written.shape)}, {written.dtype}, {written.size} values",
+            flush=True,
+        )
+        return EXIT_OK
+    print(f"{PROG}: {output}: DIFFERS from a new rendering: {what}; {difference(written, again)}")
+    return EXIT_FAILED
+
+
+def find_input(output: Path, source: dict[str, Any], given: str | None) -> Path:
+    """The input to render: ``--input``, else the recorded name, as given or beside the output."""
+    if given is not None:
+        path = Path(given)
+        if not path.exists():
+            raise Failed(f"--input {given}: no such file")
+        return path
+    name = Path(source["name"])
+    candidates = [name, output.parent / name, output.parent / name.name]
+    for path in candidates:
+        if path.exists():
+            return path
+    tried = ", ".join(dict.fromkeys(str(path) for path in candidates))
+    raise Failed(f"{output}: the recorded input {name} is not at {tried}; give --input")
+
+
+def identical(a, b) -> bool:
+    """Same shape, dtype and bytes (NaNs included)."""
+    import numpy as np
+
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def difference(written, again) -> str:
+    """How two arrays differ, in words."""
+    import numpy as np
+
+    if written.shape != again.shape or written.dtype != again.dtype:
+        return (
+            f"the output is {written.dtype} {tuple(written.shape)}, the new rendering "
+            f"{again.dtype} {tuple(again.shape)}"
+        )
+    differ = np.count_nonzero(~((written == again) | ((written != written) & (again != again))))
+    return f"{differ} of {written.size} values differ"

@@ -1,0 +1,380 @@
+"""The window of V: where the labyrinth follows the image's edges, measured on a probe.
+
+The labyrinth appears only in a narrow range of the variance threshold V of
+Eq. 4 (the paper's Fig. 3). The study behind the presets (``docs/study/``)
+measures it as the range of V whose *edge enhancement*
+(:func:`napari_labyrinth.metrics.edge_enhancement`: the correlation of the
+texture a rendering adds with the input's edges) is at least
+``WINDOW_FRACTION`` of its best: below it the walls flood smooth and dark
+regions, above it they fade and the smoothing of Eq. 2 takes over. Its
+position moves with the image's brightness, because the ratios of Eq. 2 and 4
+are relative to the local mean M.
+
+:func:`find_window` measures that curve on a *probe* of the image instead of
+the whole image: a few crops at full resolution (the pattern is 1-2 pixels
+wide, so a downsampled copy would be another image), drawn from strata of
+local contrast so that edges, texture and flat background each get their
+share. ``benchmarks/bench_window.py`` checks that the probe's window predicts
+the full image's, and times it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import numpy as np
+
+from . import metrics
+from ._engine import run_pass
+from .api import _prepare
+from .core.parameters import SEED, is_auto
+from .core.planes import normalise_channel_axis
+from .core.presets import DEFAULT_PRESET, resolve_parameters
+from .lazy import is_lazy
+
+__all__ = ["CROPS", "CROP_SIZE", "THRESHOLD_FACTORS", "WINDOW_FRACTION", "Window", "find_window"]
+
+#: The window holds every V whose edge enhancement is at least this fraction of
+#: the best (the study's definition, ``benchmarks/study.py``).
+WINDOW_FRACTION = 0.9
+
+#: V probed, as factors of the preset's V: 1/16 to 8 times it in steps of
+#: sqrt(2) (0.0025 to 0.32 around the labyrinth preset's 0.04: bright images
+#: want a low V, dark ones a high V). Factors keep the grid on the scale of
+#: either variance ratio of Eq. 4.
+THRESHOLD_FACTORS = tuple(float(f) for f in np.round(2.0 ** (np.arange(-8, 7) / 2.0), 4))
+
+#: Crops of the probe and their side in pixels.
+CROPS = 6
+CROP_SIZE = 128
+
+#: Planes of a stack the crops are drawn from (evenly spaced).
+MAX_PLANES = 4
+
+#: Subsampling step of the contrast map that ranks the candidate crops.
+_RANK_STEP = 4
+
+
+@dataclasses.dataclass(frozen=True)
+class Window:
+    """The window of V of an image and the curve it was read from.
+
+    Attributes
+    ----------
+    low, best, high : float
+        The window's ends and the V of the best edge enhancement (Eq. 4's V,
+        on the scale of the preset's ``variance_ratio``). When no V adds
+        texture on the edges (``found`` is False), all three are the
+        preset's V.
+    found : bool
+        Whether some V gives a positive edge enhancement.
+    thresholds : tuple of float
+        The V probed, increasing.
+    edge_enhancement : tuple of float
+        The probe's edge enhancement at each V.
+    changed : tuple of float
+        Fraction of the probe's pixels each V changed.
+    crops : tuple of (int, int, int)
+        Where the probe was taken: ``(plane, top, left)`` of each crop, plane
+        being the flat index of a rendered plane (or luminance position).
+    crop_size : int
+        Side of the crops (smaller when the image is).
+    """
+
+    low: float
+    best: float
+    high: float
+    found: bool
+    thresholds: tuple[float, ...]
+    edge_enhancement: tuple[float, ...]
+    changed: tuple[float, ...]
+    crops: tuple[tuple[int, int, int], ...]
+    crop_size: int
+
+    def contains(self, value: float) -> bool:
+        """Whether ``value`` lies in ``[low, high]``."""
+        return self.found and self.low <= value <= self.high
+
+    def summary(self) -> str:
+        """One line: ``V = 0.04 (window 0.03-0.06)``."""
+        if not self.found:
+            return f"V = {self.best:.4g} (no V draws the labyrinth on the edges)"
+        return f"V = {self.best:.4g} (window {self.low:.4g}-{self.high:.4g})"
+
+
+def find_window(
+    image,
+    *,
+    preset: str = DEFAULT_PRESET,
+    seed: int = 0,
+    channel_axis: int | None = None,
+    colour: str | None = None,
+    tone_limits: tuple[float, float] | None = None,
+    thresholds=None,
+    crops: int = CROPS,
+    crop_size: int = CROP_SIZE,
+    max_planes: int = MAX_PLANES,
+    workers: int | None = None,
+    **parameters: Any,
+) -> Window:
+    """Find the window of the variance threshold V (Eq. 4) where the labyrinth follows edges.
+
+    Renders a probe of the image (``crops`` crops of ``crop_size`` pixels,
+    full resolution, from up to ``max_planes`` planes of a stack) at every V
+    of ``thresholds`` with the preset's other parameters, measures the edge
+    enhancement of each rendering, and returns the range of V where it is at
+    least ``WINDOW_FRACTION`` of its best, as the study of ``docs/study/``
+    defines the window. One V serves every plane of a stack.
+
+    Parameters
+    ----------
+    image : array_like or dask array
+        As for :func:`napari_labyrinth.labyrinth`. Of a dask array only the
+        sampled planes are computed (and, without ``tone_limits``, their
+        percentiles set the tone scale).
+    preset : str, optional
+        The parameter set the window is measured for.
+    seed : int, optional
+        Seed of the random draws (Eq. 3) and of the choice of crops: the
+        result is a pure function of the image, the parameters and the seed.
+    channel_axis, colour, tone_limits : optional
+        As for :func:`napari_labyrinth.labyrinth`: the probe is taken on the
+        tones the rendering would see.
+    thresholds : sequence of float, optional
+        The V to probe. Default: the preset's V times ``THRESHOLD_FACTORS``.
+    crops : int, optional
+        Crops of the probe (>= 1).
+    crop_size : int, optional
+        Their side in pixels (>= 16); a smaller image is probed whole.
+    max_planes : int, optional
+        Planes of a stack the crops are drawn from (>= 1).
+    workers : int, optional
+        Threads (default: every core). The result does not depend on it.
+    **parameters
+        Any parameter of the algorithm but ``variance_threshold``
+        (``passes``, ``tone_ranges``, ...), as for ``labyrinth``.
+
+    Returns
+    -------
+    Window
+        ``low``, ``best``, ``high`` and the measured curve.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming the argument at fault.
+
+    Notes
+    -----
+    The crops are the cells of a grid of ``crop_size`` over each sampled
+    plane, ranked by their local contrast (mean absolute difference of
+    neighbouring pixels, on a subsampled copy) and drawn one from each of
+    ``crops`` equal strata of that ranking, so that edges, texture and
+    flat or dark background are each represented as in the image. Each crop
+    is rendered on its own, at full resolution, with the tone scale of the
+    whole image; the edge enhancement is measured on the crops side by side.
+
+    Examples
+    --------
+    >>> from skimage import data
+    >>> from napari_labyrinth import find_window, labyrinth
+    >>> window = find_window(data.camera())
+    >>> window.low <= window.best <= window.high
+    True
+    >>> rendered = labyrinth(data.camera(), variance_threshold=window.best)
+    """
+    if parameters.get("variance_threshold") is not None:
+        raise TypeError("find_window chooses variance_threshold; do not pass it")
+    parameters.pop("variance_threshold", None)
+    base = resolve_parameters(preset, **parameters)
+    seed = SEED.validate(seed)
+    crops = _positive_int("crops", crops, 1)
+    crop_size = _positive_int("crop_size", crop_size, 16)
+    max_planes = _positive_int("max_planes", max_planes, 1)
+    workers = (os.cpu_count() or 1) if workers is None else _positive_int("workers", workers, 1)
+    values = _thresholds(thresholds, base.variance_threshold)
+
+    planes = _tone_planes(image, channel_axis, colour, tone_limits, max_planes)
+    rng = np.random.default_rng(seed)
+    where, size = _choose_crops(planes, crops, crop_size, rng)
+    originals = [
+        np.ascontiguousarray(planes[plane][top : top + size[0], left : left + size[1]])
+        for plane, top, left in where
+    ]
+    mosaic = np.concatenate(originals, axis=0)
+    comparison = _EdgeComparison(mosaic, workers)
+
+    def render(index, parameters):
+        work = originals[index].copy()
+        for pass_index in range(parameters.passes):
+            run_pass(work, parameters, seed=seed, plane_index=index, pass_index=pass_index)
+        return work
+
+    curve, changed = [], []
+    with ThreadPoolExecutor(min(workers, len(originals))) as pool:
+        for value in values:
+            parameters_v = dataclasses.replace(base, variance_threshold=value)
+            rendered = np.concatenate(
+                list(pool.map(render, range(len(originals)), [parameters_v] * len(originals))),
+                axis=0,
+            )
+            curve.append(comparison.edge_enhancement(rendered))
+            changed.append(float(np.mean(rendered != mosaic)))
+    low, best, high, found = window_of(values, curve, default=base.variance_threshold)
+    return Window(
+        low=low,
+        best=best,
+        high=high,
+        found=found,
+        thresholds=tuple(values),
+        edge_enhancement=tuple(curve),
+        changed=tuple(changed),
+        crops=tuple(where),
+        crop_size=int(min(size)),
+    )
+
+
+def window_of(thresholds, curve, *, default: float, fraction: float = WINDOW_FRACTION):
+    """``(low, best, high, found)`` of a curve of edge enhancement against V.
+
+    The window is the run of consecutive V around the best whose value is at
+    least ``fraction`` of the best (the study's definition, with the run kept
+    contiguous so that a stray point far off does not widen it). No
+    positive value: ``(default, default, default, False)``.
+    """
+    values = np.asarray(curve, dtype=float)
+    usable = np.where(np.isfinite(values), values, -np.inf)
+    best = int(np.argmax(usable))
+    if not usable[best] > 0:
+        return default, default, default, False
+    floor = fraction * usable[best]
+    low = best
+    while low > 0 and usable[low - 1] >= floor:
+        low -= 1
+    high = best
+    while high < len(values) - 1 and usable[high + 1] >= floor:
+        high += 1
+    return float(thresholds[low]), float(thresholds[best]), float(thresholds[high]), True
+
+
+def window_for(image, **options: Any) -> Window:
+    """:func:`find_window` for a call of ``labyrinth(image, **options)``.
+
+    ``options`` are keyword arguments of :func:`napari_labyrinth.labyrinth`
+    (None meaning "not given"); those that do not bear on the window
+    (``variance_threshold`` itself, ``plane_offset``) are ignored.
+    """
+    ignored = ("variance_threshold", "plane_offset")
+    given = {k: v for k, v in options.items() if v is not None and k not in ignored}
+    return find_window(image, **given)
+
+
+def _positive_int(name: str, value: Any, low: int) -> int:
+    if not isinstance(value, (int, np.integer)) or isinstance(value, bool):
+        raise TypeError(f"{name} must be an integer, got {value!r}")
+    if value < low:
+        raise ValueError(f"{name} must be >= {low}, got {value}")
+    return int(value)
+
+
+def _thresholds(thresholds: Any, centre: float) -> list[float]:
+    if thresholds is None:
+        return [round(centre * factor, 6) for factor in THRESHOLD_FACTORS]
+    if isinstance(thresholds, (str, bytes)) or not hasattr(thresholds, "__len__"):
+        raise TypeError(f"thresholds must be a sequence of numbers, got {thresholds!r}")
+    values = []
+    for value in thresholds:
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+            raise TypeError(f"thresholds must hold numbers, got {value!r}")
+        if not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"thresholds must be finite and >= 0, got {value!r}")
+        values.append(float(value))
+    if not values:
+        raise ValueError("thresholds must not be empty")
+    if any(b <= a for a, b in zip(values, values[1:])):
+        raise ValueError(f"thresholds must be increasing, got {values}")
+    return values
+
+
+def _tone_planes(image, channel_axis, colour, tone_limits, max_planes) -> list[np.ndarray]:
+    """Up to ``max_planes`` evenly spaced planes of the image, as float32 tones."""
+    if is_lazy(image):
+        image = _sampled_lazy(image, channel_axis, max_planes)
+        channel_axis = None if channel_axis is None else -1
+    array, layout, scale, grey = _prepare(image, channel_axis, tone_limits, colour)
+    if grey is not None:
+        tones = grey.tones.reshape((-1,) + layout.plane_shape)
+        return [np.ascontiguousarray(tones[k]) for k in _evenly(len(tones), max_planes)]
+    indices = list(layout.rendered_indices())
+    source = layout.to_planes(array)
+    return [
+        np.ascontiguousarray(scale.to_tones(source[indices[k]]))
+        for k in _evenly(len(indices), max_planes)
+    ]
+
+
+def _sampled_lazy(image, channel_axis, max_planes) -> np.ndarray:
+    """A dask image's evenly spaced positions (all channels kept), computed."""
+    axis = normalise_channel_axis(channel_axis, image.ndim)
+    moved = image if axis is None else _moveaxis(image, axis, -1)
+    spatial = 2 if axis is None else 3
+    leading = moved.shape[: moved.ndim - spatial]
+    flat = moved.reshape((-1,) + moved.shape[moved.ndim - spatial :])
+    chosen = _evenly(max(1, math.prod(leading)), max_planes)
+    return np.asarray(flat[chosen])
+
+
+def _moveaxis(array, source, destination):
+    import dask.array as da
+
+    return da.moveaxis(array, source, destination)
+
+
+def _evenly(count: int, most: int) -> list[int]:
+    """``min(count, most)`` evenly spaced indices of ``range(count)``, first and last included."""
+    if count <= most:
+        return list(range(count))
+    return sorted({int(round(i)) for i in np.linspace(0, count - 1, most)})
+
+
+def _choose_crops(planes, crops, crop_size, rng):
+    """``(plane, top, left)`` of the probe's crops and their shape (see find_window's Notes)."""
+    height, width = planes[0].shape
+    size = (min(crop_size, height), min(crop_size, width))
+    candidates = []  # (contrast, plane, top, left)
+    for p, plane in enumerate(planes):
+        for top in range(0, height - size[0] + 1, size[0]):
+            for left in range(0, width - size[1] + 1, size[1]):
+                cell = plane[top : top + size[0] : _RANK_STEP, left : left + size[1] : _RANK_STEP]
+                candidates.append((_contrast(cell), p, top, left))
+    candidates.sort(key=lambda c: (c[0], c[1], c[2], c[3]))
+    count = min(crops, len(candidates))
+    bounds = np.linspace(0, len(candidates), count + 1).astype(int)
+    chosen = [
+        candidates[int(rng.integers(start, stop))][1:] for start, stop in zip(bounds, bounds[1:])
+    ]
+    return [tuple(int(v) for v in c) for c in chosen], size
+
+
+def _contrast(cell: np.ndarray) -> float:
+    finite = np.where(np.isfinite(cell), cell, 0.0)
+    return float(
+        np.mean(np.abs(np.diff(finite, axis=0))) + np.mean(np.abs(np.diff(finite, axis=1)))
+        if min(cell.shape) > 1
+        else 0.0
+    )
+
+
+class _EdgeComparison:
+    """Edge enhancement of renderings of one original, its maps kept between calls."""
+
+    def __init__(self, original: np.ndarray, workers: int):
+        self.original = original
+        self._comparison = metrics.Comparison(original, workers=workers)
+
+    def edge_enhancement(self, rendered: np.ndarray) -> float:
+        return dict(self._comparison.describe_steps(rendered))["edge_enhancement"]

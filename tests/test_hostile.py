@@ -1,0 +1,300 @@
+"""Hostile input through the API: each class of the hostile-input battery, case by case.
+
+Classes (as ``HOSTILE_CLASSES`` counts them): memory bombs, extreme
+parameter values, errors that name the problem, valid input once refused
+(byte order), silent garbage (non-finite outputs, alpha), valid extreme
+data, leftovers. The CLI's cases (files, scheduler, batches, signals) are in
+``tests/cli/test_cli_hostile.py``; the property over random images in
+``test_hostile_properties.py``.
+"""
+
+import os
+import time
+
+import numpy as np
+import pytest
+
+from napari_labyrinth import labyrinth, labyrinth_stack, labyrinth_sweep
+from napari_labyrinth._budget import (
+    MEMORY_ENV,
+    MemoryBudgetError,
+    parse_size,
+    refusal,
+    render_bytes,
+)
+from napari_labyrinth._leftovers import (
+    StaleTemporaryWarning,
+    remove_stale_temporaries,
+    stale_temporaries,
+    temporary_name,
+)
+from napari_labyrinth.core.parameters import PARAMETERS, PLANE_OFFSET, SEED, WORKERS
+from napari_labyrinth.io import read_image, write_array, write_image
+
+da = pytest.importorskip("dask.array")
+
+IMAGE = np.random.default_rng(13).integers(0, 256, (12, 12)).astype(np.uint8)
+
+
+# -- extreme parameter values: refused before any allocation, naming parameter and range ----------
+
+EXTREME_PARAMETERS = [
+    (dict(passes=10**12), "passes must be between 0 and 1000"),
+    (dict(passes=2**63), "passes must be between 0 and 1000"),
+    (dict(passes=-1), "passes must be between 0 and 1000"),
+    (dict(max_tries=2**70), "max_tries must be between 0 and 10000"),
+    (dict(mean_threshold=1e300), "mean_threshold must be finite and between 0 and 1e\\+06"),
+    (dict(variance_threshold=float("inf")), "variance_threshold must be finite"),
+    (dict(variance_threshold=float("nan")), "variance_threshold must be finite"),
+    (dict(tone_ranges=256), "tone_ranges as a count must be between 1 and 255"),
+    (dict(tone_ranges=[0, 1e9]), "tone_ranges must lie on the 0-255 tone scale"),
+    (dict(seed=2**64 - 1), "seed must be between 0 and 2\\*\\*63 - 1"),
+    (dict(seed=-1), "seed must be between 0 and 2\\*\\*63 - 1"),
+    (dict(plane_offset=2**64), "plane_offset must be between 0 and 2\\*\\*63 - 1"),
+    (dict(plane_offset=-1), "plane_offset must be between 0 and 2\\*\\*63 - 1"),
+    (dict(workers=0), "workers must be between 1 and 1024"),
+    (dict(workers=10**9), "workers must be between 1 and 1024"),
+]
+
+
+@pytest.mark.parametrize("kwargs,match", EXTREME_PARAMETERS, ids=lambda v: str(v)[:40])
+def test_extreme_parameter_values_are_refused_naming_the_parameter_and_its_range(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        labyrinth(IMAGE, **kwargs)
+
+
+def test_a_plane_offset_beyond_the_stream_range_is_refused_before_rendering():
+    stack = np.stack([IMAGE] * 3)
+    with pytest.raises(ValueError, match="plane_offset must be between 0 and 9223372036854775805"):
+        labyrinth(stack, plane_offset=PLANE_OFFSET.high - 1)
+    with pytest.raises(ValueError, match="plane_offset"):
+        labyrinth(da.from_array(stack, chunks=(1, 12, 12)), plane_offset=PLANE_OFFSET.high)
+    # the largest that fits renders, and as the last planes of a longer stack would
+    last = labyrinth(stack, plane_offset=PLANE_OFFSET.high - 2)
+    assert last.shape == stack.shape
+
+
+def test_every_number_of_the_table_has_both_bounds():
+    numbers = [p for p in PARAMETERS.values() if p.kind in ("int", "float", "tone_ranges")]
+    for parameter in [*numbers, SEED, PLANE_OFFSET, WORKERS]:
+        assert parameter.low is not None and parameter.high is not None, parameter.name
+    assert SEED.high == 2**63 - 1  # the widget's spin boxes hold no more
+
+
+@pytest.mark.parametrize("name", ["passes", "seed", "max_tries"])
+def test_the_largest_value_of_the_table_is_accepted(name):
+    parameter = SEED if name == "seed" else PARAMETERS[name]
+    kwargs = {"passes": 1, name: int(parameter.high)}
+    out = labyrinth(IMAGE[:4, :4], **kwargs)
+    assert out.shape == (4, 4)
+
+
+# -- errors that name the problem ------------------------------------------------------------------
+
+NAMED_ERRORS = [
+    (lambda: labyrinth([[1, 2], [3]]), ValueError, "image must be a rectangular array"),
+    (lambda: labyrinth(np.array([[1, "a"]], dtype=object)), TypeError, "image must be an array of numbers"),
+    (lambda: labyrinth(np.zeros((4, 4), np.int64)), TypeError, "image dtype int64"),
+    (lambda: labyrinth(np.zeros((4, 4), np.complex64)), TypeError, "image dtype complex64"),
+    (lambda: labyrinth(np.zeros(4, np.uint8)), ValueError, "image must have at least 2"),
+    (lambda: labyrinth(np.zeros((0, 4), np.uint8)), ValueError, "image is empty"),
+    (lambda: labyrinth("camera.png"), TypeError, "image must be an array"),
+    (lambda: labyrinth(IMAGE, tone_ranges=np.array(3.5)), TypeError, "tone_ranges must be a count"),
+    (lambda: labyrinth(IMAGE, tone_ranges="3"), TypeError, "tone_ranges must be a count"),
+    (lambda: labyrinth(IMAGE, tones=np.array(1.0)), TypeError, "tones must be a sequence"),
+    (lambda: labyrinth(IMAGE, tone_limits=np.array(3)), TypeError, "tone_limits must be None"),
+    (lambda: labyrinth(IMAGE, tone_limits=(5, 5)), ValueError, "tone_limits must be finite"),
+    (lambda: labyrinth(IMAGE, passes=np.array([1, 2])), TypeError, "passes must be an integer"),
+    (lambda: labyrinth(IMAGE, channel_axis=0), ValueError, "channel_axis needs an image of"),
+    (lambda: labyrinth(np.zeros((4, 4, 3)), channel_axis=-1, alpha=1), TypeError, "alpha must be"),
+    (lambda: labyrinth(IMAGE, alpha=True), ValueError, "alpha=True needs a channel_axis"),
+    (
+        lambda: labyrinth(np.zeros((4, 4, 2)), channel_axis=-1, alpha=True, colour="luminance"),
+        ValueError,
+        "colour='luminance' needs R, G, B",
+    ),
+    (
+        lambda: labyrinth(da.from_array(IMAGE)[da.from_array(IMAGE)[:, 0] > 100]),
+        ValueError,
+        "image is a dask array with unknown chunk sizes",
+    ),
+]
+
+
+@pytest.mark.parametrize("call,error,match", NAMED_ERRORS, ids=lambda v: str(v)[:30])
+def test_bad_input_gets_an_error_that_names_it(call, error, match):
+    with pytest.raises(error, match=match):
+        call()
+
+
+def test_a_zero_d_array_holding_a_count_is_that_count():
+    np.testing.assert_array_equal(
+        labyrinth(IMAGE, tone_ranges=np.array(4), passes=np.array(2)),
+        labyrinth(IMAGE, tone_ranges=4, passes=2),
+    )
+
+
+# -- valid input once refused: big-endian arrays ---------------------------------------------------
+
+
+@pytest.mark.parametrize("dtype", [">u2", ">i2", ">u4", ">i4", ">f2", ">f4", ">f8"])
+def test_a_big_endian_image_renders_as_its_native_equivalent_in_its_own_dtype(dtype):
+    big = (IMAGE.astype(np.float64) * 3).astype(dtype)
+    native = big.astype(np.dtype(dtype).newbyteorder("="))
+    out = labyrinth(big, passes=2, seed=4)
+    assert out.dtype == np.dtype(dtype)
+    np.testing.assert_array_equal(out, labyrinth(native, passes=2, seed=4))
+    stack = labyrinth_stack(big, passes=2, seed=4)
+    assert stack.dtype == np.dtype(dtype) and stack.shape == (3, *big.shape)
+    sweep = labyrinth_sweep(big, "seed", [1, 2])
+    assert sweep.dtype == np.dtype(dtype)
+    lazy = labyrinth(da.from_array(big, chunks=(6, 12)), passes=2, seed=4)
+    assert lazy.dtype == np.dtype(dtype)
+    np.testing.assert_array_equal(lazy.compute(), out)
+
+
+# -- silent garbage ---------------------------------------------------------------------------------
+
+
+def test_float16_with_tone_limits_beyond_its_range_makes_no_infinity():
+    image = IMAGE.astype(np.float16) * 250  # up to 63750, near float16's limit of 65504
+    assert np.isfinite(image).all()
+    for limits in [(0.0, 1e6), (-1e6, 1e6), (-1e9, -1e8)]:
+        out = labyrinth(image, tone_limits=limits, passes=3, seed=1)
+        assert np.isfinite(out).all(), limits
+    rgb = np.stack([image, image[::-1], image.T], axis=-1)
+    out = labyrinth(rgb, channel_axis=-1, tone_limits=(-1e6, 1e6), passes=3, seed=1)
+    assert np.isfinite(out).all()
+
+
+@pytest.mark.parametrize(
+    "shape,axis,alpha",
+    [((12, 12, 2), -1, True), ((2, 12, 12), 0, True), ((12, 12, 4), -1, None), ((4, 12, 12), 0, None),
+     ((3, 12, 12, 2), -1, True), ((12, 12, 3), -1, True)],
+)
+def test_alpha_is_never_rendered_whatever_the_layout(shape, axis, alpha):
+    image = np.random.default_rng(1).integers(0, 256, shape).astype(np.uint8)
+    out = labyrinth(image, channel_axis=axis, alpha=alpha, passes=3, seed=2)
+    np.testing.assert_array_equal(np.take(out, -1, axis=axis), np.take(image, -1, axis=axis))
+    assert not np.array_equal(out, image)  # the colour channels were rendered
+    lazy = labyrinth(da.from_array(image), channel_axis=axis, alpha=alpha, passes=3, seed=2)
+    np.testing.assert_array_equal(lazy.compute(), out)
+
+
+def test_alpha_counts_every_pixel_as_skipped_in_the_diagnostics():
+    image = np.random.default_rng(1).integers(0, 256, (12, 12, 2)).astype(np.uint8)
+    _, diagnostics = labyrinth(image, channel_axis=-1, alpha=True, return_diagnostics=True)
+    assert diagnostics["skipped"][0, 1] == 144
+
+
+# -- valid extreme data -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value", [1e16, -1e16, 2.0**53, 3e38, -3e38])
+def test_a_constant_image_of_huge_values_renders_in_memory_and_lazily_alike(value):
+    image = np.full((8, 8), value, np.float32)
+    out = labyrinth(image, seed=1)
+    assert out.dtype == np.float32 and np.isfinite(out).all()
+    np.testing.assert_array_equal(labyrinth(da.from_array(image, chunks=4), seed=1).compute(), out)
+
+
+def test_the_largest_float64_constant_keeps_a_scale():
+    image = np.full((6, 6), np.finfo(np.float64).max)
+    assert np.isfinite(labyrinth(image)).all()
+
+
+def test_values_spanning_all_of_float64_are_refused_naming_the_tone_limits():
+    image = np.array([[-1.7e308, 1.7e308] * 4] * 8)
+    with pytest.raises(ValueError, match="default tone limits .* of image .* pass tone_limits"):
+        labyrinth(image)
+    assert np.isfinite(labyrinth(image, tone_limits=(-5e307, 5e307))).all()
+
+
+# -- memory bombs: the budget -----------------------------------------------------------------------
+
+
+def test_sizes_parse_in_binary_units():
+    assert parse_size("512M") == 512 << 20
+    assert parse_size("1.5GiB") == 3 << 29
+    assert parse_size("1000") == 1000
+    with pytest.raises(ValueError, match=MEMORY_ENV):
+        parse_size("lots")
+
+
+def test_a_declared_huge_image_is_refused_with_its_size_and_what_to_do(monkeypatch):
+    monkeypatch.setenv(MEMORY_ENV, "1G")
+    reason = refusal((100_000, 100_000), np.uint8)
+    assert "100000 x 100000 uint8 pixels (9.3 GiB)" in reason
+    assert "more than the 1.0 GiB this run may use" in reason and MEMORY_ENV in reason
+    assert refusal((1000, 1000), np.uint8) is None
+    # the render estimate: input and result, and one plane's work arrays
+    assert render_bytes((10, 100, 100), np.uint16) == 2 * 2 * 10**5 + 17 * 10**4
+
+
+def test_a_lazy_image_of_huge_planes_is_refused_before_a_block_is_read(monkeypatch):
+    monkeypatch.setenv(MEMORY_ENV, "100M")
+    huge = da.zeros((2, 50_000, 50_000), dtype=np.uint8, chunks=(1, 50_000, 50_000))
+    with pytest.raises(MemoryBudgetError, match="image: each plane declares 50000 x 50000"):
+        labyrinth(huge, tone_limits=(0, 255))
+    small = da.zeros((2, 64, 64), dtype=np.uint8)
+    assert labyrinth(small).shape == (2, 64, 64)
+
+
+def test_a_zarr_store_too_big_to_read_whole_is_refused_before_reading(tmp_path, monkeypatch):
+    zarr = pytest.importorskip("zarr")
+    store = tmp_path / "big.zarr"
+    zarr.create_array(store=str(store), shape=(40_000, 40_000), chunks=(4000, 4000), dtype="u2")
+    monkeypatch.setenv(MEMORY_ENV, "64M")
+    with pytest.raises(ValueError, match="declares 40000 x 40000 uint16 pixels"):
+        read_image(store)
+
+
+# -- leftovers ----------------------------------------------------------------------------------------
+
+
+def _dead_pid() -> int:
+    import subprocess
+    import sys
+
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return child.pid
+
+
+def test_temporaries_of_dead_writers_are_removed_by_the_next_write(tmp_path):
+    name = "out.tif"
+    dead = _dead_pid()
+    stale_file = tmp_path / temporary_name(name).replace(f"-{os.getpid()}-", f"-{dead}-")
+    stale_file.write_bytes(b"half a tiff")
+    stale_dir = tmp_path / temporary_name(name).replace(f"-{os.getpid()}-", f"-{dead}-")
+    stale_dir.mkdir()
+    (stale_dir / "zarr.json").write_text("{}")
+    alive = tmp_path / temporary_name(name)  # this process: a write in progress
+    alive.write_bytes(b"")
+    removable, unknown = stale_temporaries(tmp_path, name)
+    assert sorted(removable) == sorted([stale_file, stale_dir]) and unknown == []
+    write_image(tmp_path / name, IMAGE)
+    assert not stale_file.exists() and not stale_dir.exists() and alive.exists()
+
+
+def test_unattributed_temporaries_are_reported_not_removed(tmp_path):
+    old_style = tmp_path / ".out.tif.0123abcd.tmp"
+    old_style.write_bytes(b"")
+    with pytest.warns(StaleTemporaryWarning, match=r"\.out\.tif\.0123abcd\.tmp"):
+        remove_stale_temporaries(tmp_path, "out.tif")
+    assert old_style.exists()
+
+
+def test_a_normal_write_and_a_failed_one_leave_no_temporary(tmp_path):
+    write_array(tmp_path / "a.zarr", IMAGE)
+    write_image(tmp_path / "b.tif", IMAGE)
+    with pytest.raises(ValueError):
+        write_image(tmp_path / "c.jpg", IMAGE.astype(np.float32))
+    with pytest.raises(RuntimeError):
+        write_array(tmp_path / "d.zarr", da.from_array(IMAGE).map_blocks(_fail, dtype=np.uint8))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.zarr", "b.tif"]
+
+
+def _fail(block):
+    time.sleep(0.01)
+    raise RuntimeError("a block failed")
