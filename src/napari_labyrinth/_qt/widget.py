@@ -275,8 +275,13 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         outer = QVBoxLayout(self)
         outer.setContentsMargins(0, 0, 0, 0)
         outer.addWidget(scroll)
-        content.setMinimumWidth(330)
-        self.setMinimumWidth(350)
+        content.setMinimumWidth(365)
+        self.setMinimumWidth(385)
+
+    def showEvent(self, event) -> None:  # noqa: N802 - Qt's name
+        super().showEvent(event)
+        for box in (self.inputs.box, self.form.parameter_box, self.form.reading_box):
+            _fit_label_widths(box)
 
     # -- choices -----------------------------------------------------------------------------
 
@@ -505,3 +510,21 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
     def comparing(self) -> bool:
         """Whether the compare (grid) view is on."""
         return self._compare.active
+
+
+def _fit_label_widths(box: Container) -> None:
+    """Give the row labels of ``box`` the width their text needs as napari draws them.
+
+    magicgui sizes them with the application's font and no padding; napari's
+    stylesheet draws them larger and padded, which cut the end of the longest
+    (``variance threshold V``).
+    """
+    rows = [row for row in (widget._labeled_widget() for widget in box) if row is not None]
+    labels = [row._label_widget.native for row in rows]
+    if not labels:
+        return
+    for label in labels:
+        label.ensurePolished()
+    widest = max(label.sizeHint().width() for label in labels)
+    for row in rows:
+        row.label_width = widest
