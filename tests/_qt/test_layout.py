@@ -89,16 +89,22 @@ def test_the_metrics_of_a_stack_fit_the_dock_and_come_into_view(qtbot, shown_wid
 def test_more_passes_wrap_the_row_headers_then_scroll_without_hiding_a_row(qtbot, shown_widget):
     _, widget = shown_widget
     table = widget.metrics_table
-    table.show_passes(_rows(5))
-    qtbot.waitUntil(lambda: table.width() > 0 and table.isVisible())
-    table.fit()
-    assert not table.needs_scrollbar()  # five fit once the long row headers wrap
-    assert "\n" in table.verticalHeaderItem(0).text()
-    assert table.verticalHeaderItem(6).text() == "changed %"  # short ones stay on one line
-
-    table.show_passes(_rows(12))
-    table.fit()
-    assert table.needs_scrollbar()
-    rows = sum(table.rowHeight(row) for row in range(table.rowCount()))
-    qtbot.waitUntil(lambda: table.horizontalScrollBar().isVisible())
-    assert table.viewport().height() >= rows  # the scrollbar takes no row's room
+    table.show_passes(_rows(4))
+    qtbot.waitUntil(lambda: table.isVisible() and table.width() > 0)
+    seen = set()
+    for passes in range(4, 13):
+        table.show_passes(_rows(passes))
+        wrapped = "\n" in table.verticalHeaderItem(0).text()
+        scrolls = table.needs_scrollbar()
+        seen.add((wrapped, scrolls))
+        assert table.verticalHeaderItem(6).text() == "changed %"  # short headers: one line
+        if scrolls:
+            assert wrapped  # a scrollbar only once wrapping is not enough
+            rows = sum(table.rowHeight(row) for row in range(table.rowCount()))
+            qtbot.waitUntil(lambda: table.horizontalScrollBar().isVisible())
+            assert table.viewport().height() >= rows  # the scrollbar takes no row's room
+        if wrapped:  # wrapped only when the passes do not fit beside one-line headers
+            table.wrap_row_headers(wrapped=False)
+            assert table.content_width() > table.width()
+            table.fit()
+    assert (False, False) in seen and (True, True) in seen  # 4 passes fit, 12 scroll

@@ -41,7 +41,7 @@ class MetricsTable(QTableWidget):
         for header in (self.horizontalHeader(), self.verticalHeader()):
             header.setFont(font)
             header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
-        self._set_row_headers(wrapped=False)
+        self.wrap_row_headers(wrapped=False)
         self.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
         self.setVerticalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
         self.setSizeAdjustPolicy(QAbstractItemView.SizeAdjustPolicy.AdjustIgnored)
@@ -50,7 +50,7 @@ class MetricsTable(QTableWidget):
         self.title.setVisible(False)
         self.setVisible(False)
 
-    def _set_row_headers(self, wrapped: bool) -> None:
+    def wrap_row_headers(self, wrapped: bool) -> None:
         """Row headers on one line, or the long ones split at their first space."""
         metrics = self.verticalHeader().fontMetrics()
         texts = [header for header, _ in self._headers]
@@ -111,9 +111,9 @@ class MetricsTable(QTableWidget):
         """
         if self.columnCount() == 0:
             return False
-        self._set_row_headers(wrapped=False)
+        self.wrap_row_headers(wrapped=False)
         if self.content_width() > self.width():
-            self._set_row_headers(wrapped=True)
+            self.wrap_row_headers(wrapped=True)
         self.resizeRowsToContents()
         height = self.horizontalHeader().sizeHint().height() + 2 * self.frameWidth()
         height += sum(self.rowHeight(row) for row in range(self.rowCount()))
