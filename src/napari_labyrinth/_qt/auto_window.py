@@ -22,7 +22,7 @@ from qtpy.QtWidgets import QSizePolicy, QWidget
 from ..plan import Choices, LayerSnapshot, make_plan
 from ..window import Window, window_for
 from .form import ParameterForm
-from .plot_layout import SWATCH, PlotLayout, compact_font, plot_layout
+from .plot_layout import INSET, SWATCH, PlotLayout, compact_font, plot_layout
 
 #: The field the button fills.
 FIELD = "variance_threshold"
@@ -182,13 +182,14 @@ class WindowPlot(QWidget):
         painter.setRenderHint(QPainter.RenderHint.Antialiasing)
         text = self.palette().windowText().color()
         rects = self.plot_rects()
-        frame = rects.data
+        box = rects.data
+        frame = box.adjusted(INSET, INSET, -INSET, -INSET)  # the end dots clear the box
         if window.found:
             left, right = self.x_of(window.low, frame), self.x_of(window.high, frame)
-            band = QRectF(left - 2, frame.top(), right - left + 4, frame.height())
+            band = QRectF(left - 2, box.top(), right - left + 4, box.height())
             painter.fillRect(band, _WINDOW)
         painter.setPen(QPen(text, 1))
-        painter.drawRect(frame)
+        painter.drawRect(box)
         finite = [v for v in window.edge_enhancement if math.isfinite(v)]
         low, high = min(0.0, *finite, 0.0), max(0.0, *finite, 0.0)
         high += 0.1 * ((high - low) or 1.0)

@@ -9,15 +9,13 @@ from qtpy.QtCore import QPointF, Qt
 from qtpy.QtGui import QColor, QPainter, QPen
 from qtpy.QtWidgets import QSizePolicy, QWidget
 
-from .plot_layout import SWATCH, PlotLayout, compact_font, plot_layout
+from .plot_layout import INSET, SWATCH, PlotLayout, compact_font, plot_layout
 
 #: The plotted metrics: (key, legend, colour).
 CURVES = (
     ("edge_enhancement", "edge enhancement", "#f0a030"),
     ("labyrinth_cover", "labyrinth cover", "#40b0f0"),
 )
-#: Pixels between the frame's sides and the first and last pass, and above its bottom.
-INSET = 5
 
 
 class MetricsPlot(QWidget):

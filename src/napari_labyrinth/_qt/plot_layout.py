@@ -21,6 +21,8 @@ COMPACT_FONT = 0.9
 #: Space around the data rectangle and between the lines of text, in pixels.
 MARGIN = 8
 GAP = 3
+#: Pixels between the data rectangle's sides and the data, so that no dot sits on its border.
+INSET = 5
 #: Room left of a legend caption for its colour swatch, and between two captions.
 SWATCH = 14
 SPACING = 12
