@@ -108,3 +108,20 @@ def test_more_passes_wrap_the_row_headers_then_scroll_without_hiding_a_row(qtbot
             assert table.content_width() > table.width()
             table.fit()
     assert (False, False) in seen and (True, True) in seen  # 4 passes fit, 12 scroll
+
+
+def test_no_row_label_of_the_form_is_cut(qtbot, shown_widget):
+    from qtpy.QtWidgets import QLabel
+
+    _, widget = shown_widget
+    qtbot.waitUntil(lambda: widget.form.parameter_box.native.isVisible())
+    boxes = (widget.inputs.box, widget.form.parameter_box)
+    labels = [
+        label
+        for box in boxes
+        for label in box.native.findChildren(QLabel)
+        if label.text() and label.isVisible() and label is not widget.edited.native
+    ]
+    assert any(label.text() == "variance threshold V" for label in labels)
+    for label in labels:
+        assert label.width() >= label.sizeHint().width(), label.text()
