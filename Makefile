@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test fuzz bench-hostile file-cases bench bench-scale bench-widget bench-metrics bench-window study gallery screenshot install install-test system-packages clean
+.PHONY: demo test fuzz bench-hostile file-cases bench bench-speed bench-scale bench-widget bench-metrics bench-window study gallery screenshot install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
@@ -30,6 +30,12 @@ bench-hostile: $(VENV)/.installed-test
 bench: $(VENV)/.installed
 	$(PY) benchmarks/bench_kernel.py
 	$(PY) benchmarks/bench_parallel.py
+
+# One plane, fast: C reference vs kernel vs labyrinth() (2048², 1 and 4 passes), then the
+# exact-order parallel pass (2048² and 8192², a loaded core, tile sizes, a model for 8/16 cores).
+bench-speed: $(VENV)/.installed
+	$(PY) benchmarks/bench_kernel.py --no-start-up
+	$(PY) benchmarks/bench_parallel.py --sections exact loaded tiles model
 
 bench-scale: $(VENV)/.installed-test
 	$(PY) benchmarks/bench_scale.py --planes 200

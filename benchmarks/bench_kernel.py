@@ -1,19 +1,39 @@
-"""Speed of the labyrinth kernel: prints figures, asserts nothing.
+"""One plane on one thread: C reference, numba kernel, ``labyrinth()``. Prints, asserts nothing.
 
-Run with ``make bench`` or ``python benchmarks/bench_kernel.py``. Reports
-Mpx/s per pass (best of several runs, JIT compilation excluded) for the
-numba kernel alone, for ``labyrinth()`` (tone mapping and copies included)
-and for the pure-Python oracle; import time; and the first call in a new
-process with a cold and with a warm numba cache.
+For each preset, dtype (uint8, uint16) and pass count (1, 4) on a camera image
+of ``--size``² pixels, three variants are timed *interleaved* (one run of each
+in turn, ``--repeats`` rounds, best kept), so that a load that comes and goes
+on a shared machine disturbs them alike:
+
+- ``C``: ``c_reference.c`` (gcc -O3 -march=native
+  -ffp-contract=off), the same readings; checked bit for bit against the
+  kernel first (planes and counts). Skipped, saying so, without a compiler.
+- ``kernel``: ``_engine.run_pass`` on the tones (what a pass costs).
+- ``labyrinth()``: the public call on the integer image, one worker: tone
+  limits, tones, passes, write-back.
+
+Figures are Mpx/s per pass (wall clock, and thread CPU time, which a busy
+machine disturbs less) and ratios; the load average is printed beside them.
+Also: the pure-Python oracle, import time and the first call in a new
+process (cold and warm numba cache). Run: ``make bench`` or
+``python benchmarks/bench_kernel.py [--size 2048] [--repeats 7]``.
 """
 
+from __future__ import annotations
+
+import argparse
 import os
+import pathlib
 import subprocess
 import sys
 import tempfile
 import time
 
 import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+
+import c_reference  # noqa: E402
 
 
 def camera(size, dtype):
@@ -25,29 +45,107 @@ def camera(size, dtype):
     return image.astype(np.uint8)
 
 
-def best_of(fn, repeats):
-    times = []
+def load():
+    return "load %.2f %.2f %.2f" % os.getloadavg()
+
+
+def interleaved(variants, repeats):
+    """Best wall and thread-CPU seconds of each variant, run in turn ``repeats`` times.
+
+    A variant is ``(prepare, run)``: ``prepare()`` (untimed) returns the
+    argument of ``run``.
+    """
+    wall = dict.fromkeys(variants, np.inf)
+    cpu = dict.fromkeys(variants, np.inf)
     for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
+        for name, (prepare, run) in variants.items():
+            argument = prepare()
+            start, start_cpu = time.perf_counter(), time.thread_time()
+            run(argument)
+            cpu[name] = min(cpu[name], time.thread_time() - start_cpu)
+            wall[name] = min(wall[name], time.perf_counter() - start)
+    return wall, cpu
 
 
-def kernel_runner(image, preset):
-    """A pass of the bare kernel on the image's tones, and the time of the copy it makes."""
-    from napari_labyrinth import resolve_parameters
+def check_c_against_kernel(c, image, parameters, passes):
+    """True if the C reference gives the kernel's planes and counts, bit for bit."""
     from napari_labyrinth._engine import run_pass
     from napari_labyrinth.core.tone_scale import resolve_tone_scale
 
-    parameters = resolve_parameters(preset)
     tones = resolve_tone_scale(image, None).to_tones(image)
+    a, b = tones.copy(), tones.copy()
+    for pass_index in range(passes):
+        counts_a = run_pass(a, parameters, seed=7, plane_index=2, pass_index=pass_index)
+        counts_b = c.run_pass(b, parameters, seed=7, plane_index=2, pass_index=pass_index)
+        if not np.array_equal(counts_a, counts_b):
+            return False
+    with_holes = tones[:300, :301].copy()
+    with_holes[::17, ::13] = np.nan
+    a, b = with_holes.copy(), with_holes.copy()
+    same_holes = np.array_equal(run_pass(a, parameters), c.run_pass(b, parameters))
+    return same_holes and np.array_equal(a.view(np.uint32), b.view(np.uint32))
 
-    def run():
-        run_pass(tones.copy(), parameters, has_nonfinite=False)
 
-    copy_time = best_of(lambda: tones.copy(), 5)
-    return run, copy_time
+def bench_variants(size, repeats, c):
+    from napari_labyrinth import labyrinth, resolve_parameters
+    from napari_labyrinth._engine import run_pass
+    from napari_labyrinth.core.tone_scale import resolve_tone_scale
+
+    print(f"one {size}^2 plane, one thread; Mpx/s per pass, best of {repeats} interleaved rounds")
+    if c is not None:
+        print(f"C reference: {c.command}")
+    header = (
+        f"{'preset':<10}{'dtype':<7}{'passes':>6}{'C':>8}{'kernel':>8}{'labyr.()':>9}"
+        f"{'kernel/C':>9}{'api/kernel':>11}{'  (CPU time:':>13}{'kernel/C':>9}{'api/kernel':>11}"
+        f"{')':<2}{'C same':>7}  load"
+    )
+    print(header)
+    for preset in ("paper", "labyrinth"):
+        parameters = resolve_parameters(preset)
+        for dtype in (np.uint8, np.uint16):
+            image = camera(size, dtype)
+            tones = resolve_tone_scale(image, None).to_tones(image)
+            for passes in (1, 4):
+                p = resolve_parameters(preset, passes=passes)
+
+                def kernel(work, parameters=p):
+                    for pass_index in range(parameters.passes):
+                        run_pass(work, parameters, pass_index=pass_index, has_nonfinite=False)
+
+                variants = {
+                    "kernel": (tones.copy, kernel),
+                    "api": (
+                        lambda: image,
+                        lambda image, preset=preset, passes=passes: labyrinth(
+                            image, preset=preset, passes=passes, workers=1
+                        ),
+                    ),
+                }
+                same = "-"
+                if c is not None:
+                    same = "yes" if check_c_against_kernel(c, image, p, passes) else "NO"
+
+                    def c_pass(work, parameters=p):
+                        for pass_index in range(parameters.passes):
+                            c.run_pass(
+                                work, parameters, pass_index=pass_index, has_nonfinite=False
+                            )
+
+                    variants["C"] = (tones.copy, c_pass)
+                kernel(tones.copy())  # compile
+                variants["api"][1](image)
+                wall, cpu = interleaved(variants, repeats)
+                rate = {name: image.size * passes / t / 1e6 for name, t in wall.items()}
+                c_rate = f"{rate['C']:>8.0f}" if c is not None else f"{'-':>8}"
+                c_ratio = f"{wall['C'] / wall['kernel']:>9.2f}" if c is not None else f"{'-':>9}"
+                c_cpu = f"{cpu['C'] / cpu['kernel']:>9.2f}" if c is not None else f"{'-':>9}"
+                print(
+                    f"{preset:<10}{np.dtype(dtype).name:<7}{passes:>6}{c_rate}"
+                    f"{rate['kernel']:>8.0f}{rate['api']:>9.0f}{c_ratio}"
+                    f"{wall['kernel'] / wall['api']:>11.2f}{'':>13}{c_cpu}"
+                    f"{cpu['kernel'] / cpu['api']:>11.2f}{'':<2}{same:>7}  {load()}"
+                )
+    print("kernel/C and api/kernel are throughput ratios (targets: >= 0.85 and >= 0.9)")
 
 
 def subprocess_seconds(code, env):
@@ -57,33 +155,9 @@ def subprocess_seconds(code, env):
     return float(result.stdout.strip().splitlines()[-1])
 
 
-def main():
-    from napari_labyrinth import labyrinth
+def bench_start_up():
     from napari_labyrinth.api import resolve_parameters
     from napari_labyrinth.core._reference import reference_render
-
-    print("labyrinth kernel benchmark: Mpx/s per pass, single thread, JIT compile excluded")
-    print(
-        f"{'preset':<11}{'image':<22}{'kernel Mpx/s':>14}{'labyrinth() Mpx/s':>20}{'changed':>10}"
-    )
-    for preset in ("paper", "labyrinth"):
-        for size in (512, 2048, 4096):
-            for dtype in (np.uint8, np.uint16):
-                image = camera(size, dtype)
-                run, copy_time = kernel_runner(image, preset)
-                run()  # compile
-                kernel = best_of(run, 7) - copy_time
-
-                def render(image=image, preset=preset):
-                    return labyrinth(image, preset=preset, passes=1)
-
-                api = best_of(render, 3)
-                changed = np.mean(render() != image)
-                name = f"camera {size}^2 {np.dtype(dtype).name}"
-                print(
-                    f"{preset:<11}{name:<22}{image.size / kernel / 1e6:>14.0f}"
-                    f"{image.size / api / 1e6:>20.0f}{changed:>10.2%}"
-                )
 
     small = camera(512, np.uint8)[:64, :64].astype(np.float32)
     start = time.perf_counter()
@@ -98,7 +172,6 @@ def main():
     )
     imports = [subprocess_seconds(import_code, env) for _ in range(3)]
     print(f"import napari_labyrinth: {min(imports):.3f} s (best of 3)")
-
     first_call = (
         "import time; t = time.perf_counter(); import numpy as np; from napari_labyrinth import"
         " labyrinth; labyrinth(np.zeros((64, 64), np.uint8)); print(time.perf_counter() - t)"
@@ -108,7 +181,19 @@ def main():
         cold = subprocess_seconds(first_call, env)
         warm = subprocess_seconds(first_call, env)
     print(f"import + first call, new process, cold numba cache (JIT compile): {cold:.2f} s")
-    print(f"import + first call, new process, warm numba cache: {warm:.2f} s")
+    print(f"import + first call, new process, warm numba cache: {warm:.2f} s  ({load()})")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=2048)
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--no-start-up", action="store_true", help="skip oracle and start-up")
+    args = parser.parse_args(argv)
+    print(f"{os.cpu_count()} cores, {load()}")
+    bench_variants(args.size, args.repeats, c_reference.load())
+    if not args.no_start_up:
+        bench_start_up()
 
 
 if __name__ == "__main__":

@@ -124,3 +124,47 @@ def test_a_stack_s_partial_result_holds_each_pass_as_soon_as_it_is_reported(came
             event.partial[event.pass_number, event.plane], want[event.pass_number, event.plane]
         )
     assert "partial" not in repr(events[0])  # events print short
+
+
+# Integer planes: tones in one pass and a fused write-back, as the numpy path.
+
+from napari_labyrinth.core.tone_scale import (  # noqa: E402
+    ToneScale,
+    integer_plane_tones,
+    write_changed_values,
+)
+
+INTEGER_SCALES = [(0.0, 255.0), (12.0, 3000.5), (-100.0, 100.0), (0.0, 1.0), (-5e9, 5e9)]
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.int8, np.uint16, np.int16, np.uint32, np.int32])
+def test_integer_tones_and_write_back_equal_the_numpy_path(dtype):
+    info = np.iinfo(dtype)
+    if np.dtype(dtype).itemsize <= 2:  # every value of the type
+        values = np.arange(info.min, info.max + 1, dtype=np.int64).astype(dtype).reshape(-1, 256)
+    else:
+        rng = np.random.default_rng(0)
+        values = rng.integers(info.min, info.max, (64, 128), endpoint=True).astype(dtype)
+        values[0, :4] = [info.min, info.max, 0, 1]
+    rng = np.random.default_rng(1)
+    for low, high in INTEGER_SCALES:
+        scale = ToneScale(low, high)
+        tones = integer_plane_tones(scale, values)
+        want = scale.to_tones(values)
+        np.testing.assert_array_equal(tones.view(np.uint32), want.view(np.uint32))
+        # a pass changes some tones (to any tone, the ends and the same tone included)
+        work = tones.copy()
+        changed = rng.random(values.shape) < 0.3
+        work[changed] = rng.uniform(0, 255, int(changed.sum())).astype(np.float32)
+        work.flat[:3] = [0.0, 255.0, tones.flat[2]]
+        got = values.copy()
+        write_changed_values(scale, got, values, work)
+        expected = values.copy()
+        _engine.write_changes(expected, want, work, scale)
+        np.testing.assert_array_equal(got, expected)
+
+
+def test_a_non_contiguous_or_float_plane_takes_the_numpy_path():
+    scale = ToneScale(0.0, 255.0)
+    assert integer_plane_tones(scale, np.zeros((4, 6), np.uint8)[:, ::2]) is None
+    assert integer_plane_tones(scale, np.zeros((4, 6), np.float32)) is None

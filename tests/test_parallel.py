@@ -1,5 +1,6 @@
 """Threads change the speed, never the result."""
 
+import itertools
 import threading
 
 import numpy as np
@@ -78,3 +79,211 @@ def test_bad_workers_are_refused(stack):
         labyrinth(stack[0], workers=0)
     with pytest.raises(TypeError, match="workers"):
         labyrinth(stack[0], workers=1.5)
+
+
+# The exact-order schedule: parallelogram tiles of the raster scan on threads.
+
+from napari_labyrinth import PRESETS  # noqa: E402
+from napari_labyrinth._engine import (  # noqa: E402
+    exact_order_refusal,
+    exact_order_tiles,
+    run_pass,
+)
+from napari_labyrinth.core._kernel import labyrinth_pass  # noqa: E402
+from napari_labyrinth.core.parameters import PARAMETERS, make_parameters  # noqa: E402
+
+#: Every option the tiles reproduce: the choices of the parameter table but
+#: the scans and the border they refuse (tested apart below).
+TILED_OPTIONS = {
+    name: [
+        value
+        for value in (parameter.choices if parameter.kind == "choice" else (False, True))
+        if not (name == "border" and value == "wrap")
+    ]
+    for name, parameter in PARAMETERS.items()
+    if parameter.kind in ("choice", "bool") and name != "scan"
+}
+
+
+def textured_plane(shape, seed, holes=False):
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[: shape[0], : shape[1]]
+    plane = 90 + 60 * np.sin(x / 4.0 + y / 7.0) + rng.normal(0, 25, shape)
+    plane = np.clip(plane, 0, 255).astype(np.float32)
+    if holes:
+        plane[rng.random(shape) < 0.03] = np.nan
+        plane[shape[0] // 2, :] = np.inf
+    return plane
+
+
+def serial_and_tiled(plane, parameters, workers, tile, seed=3):
+    serial = plane.copy()
+    serial_counts = run_pass(serial, parameters, seed=seed, plane_index=1, pass_index=2)
+    tiled = plane.copy()
+    tiled_counts = run_pass(
+        tiled, parameters, seed=seed, plane_index=1, pass_index=2, workers=workers, tile=tile
+    )
+    return serial, serial_counts, tiled, tiled_counts
+
+
+def assert_same(serial, serial_counts, tiled, tiled_counts):
+    np.testing.assert_array_equal(tiled.view(np.uint32), serial.view(np.uint32))
+    np.testing.assert_array_equal(tiled_counts, serial_counts)
+
+
+@pytest.mark.parametrize(
+    "values",
+    [dict(zip(TILED_OPTIONS, v)) for v in itertools.product(*TILED_OPTIONS.values())],
+    ids=lambda v: "-".join(map(str, v.values())),
+)
+def test_tiles_on_threads_equal_the_raster_scan_for_every_option(values):
+    plane = textured_plane((29, 41), seed=len(str(values)), holes=values["border"] == "mirror")
+    for preset in PRESETS:
+        parameters = make_parameters(**dict(PRESETS[preset], **values))
+        for workers, tile in [(2, (3, 5)), (3, (4, 9)), (4, (1, 1))]:
+            assert_same(*serial_and_tiled(plane, parameters, workers, tile))
+
+
+@pytest.mark.parametrize("shape", [(2, 3), (5, 1), (1, 7), (17, 2), (31, 33), (64, 19)])
+@pytest.mark.parametrize("holes", [False, True])
+def test_tiles_equal_the_raster_scan_on_odd_sizes_and_non_finite_planes(shape, holes):
+    plane = textured_plane(shape, seed=shape[0], holes=holes)
+    for preset in PRESETS:
+        parameters = make_parameters(**PRESETS[preset])
+        for workers in range(1, 6):
+            for tile in [(1, 1), (2, 3), (3, 2), (7, 16), (100, 100)]:
+                assert_same(*serial_and_tiled(plane, parameters, workers, tile))
+
+
+def _tile_order_results(plane, parameters, rows, diagonals, order):
+    """The plane after running its tiles one after the other in ``order``."""
+    from napari_labyrinth._engine import _kernel_arguments, _kernel_options
+
+    work = plane.copy()
+    counts = np.zeros(6, np.int64)
+    has_nonfinite = not np.isfinite(plane).all()
+    for band, j in order:
+        labyrinth_pass(
+            work, *_kernel_arguments(parameters), np.uint64(3), 1, 2,
+            *_kernel_options(parameters), has_nonfinite, counts, -1, band * rows,
+            min(plane.shape[0], (band + 1) * rows), j * diagonals, (j + 1) * diagonals,
+        )  # fmt: skip
+    return work, counts
+
+
+def test_any_order_of_the_tiles_that_keeps_their_dependencies_equals_the_raster_scan():
+    # Threads may run the tiles in any order in which tile (i, j) follows tile
+    # (i - 1, j) (or the whole band above) and tile (i, j - 1); run random such
+    # orders one tile after the other: each must give the raster scan's plane.
+    rng = np.random.default_rng(7)
+    for preset in PRESETS:
+        parameters = make_parameters(**PRESETS[preset])
+        for shape, rows, diagonals in [((23, 31), 3, 4), ((40, 17), 5, 3), ((12, 50), 2, 9)]:
+            plane = textured_plane(shape, seed=rows, holes=rows == 5)
+            serial = plane.copy()
+            serial_counts = run_pass(serial, parameters, seed=3, plane_index=1, pass_index=2)
+            tiles = exact_order_tiles(shape, rows, diagonals)
+            for _ in range(5):
+                done = [0] * len(tiles)  # tiles done in each band, in order
+                order = []
+                while len(order) < sum(map(len, tiles)):
+                    ready = [
+                        band
+                        for band in range(len(tiles))
+                        if done[band] < len(tiles[band])
+                        and (
+                            band == 0
+                            or done[band - 1] == len(tiles[band - 1])
+                            or tiles[band - 1][done[band - 1]] > tiles[band][done[band]]
+                        )
+                    ]
+                    band = ready[rng.integers(len(ready))]
+                    order.append((band, tiles[band][done[band]]))
+                    done[band] += 1
+                got, counts = _tile_order_results(plane, parameters, rows, diagonals, order)
+                np.testing.assert_array_equal(got.view(np.uint32), serial.view(np.uint32))
+                np.testing.assert_array_equal(counts, serial_counts)
+
+
+def test_rectangles_in_wave_order_would_not_equal_the_raster_scan():
+    # why parallelograms: with rectangles (x instead of x + y) tile (i, j)
+    # reads tile (i - 1, j + 1) updated, which the raster scan has not done yet
+    parameters = make_parameters(**PRESETS["labyrinth"])
+    plane = textured_plane((24, 24), seed=1)
+    serial = plane.copy()
+    run_pass(serial, parameters, seed=3, plane_index=1, pass_index=2)
+    rectangles = plane.copy()
+    from napari_labyrinth._engine import _kernel_arguments, _kernel_options
+
+    for wave in range(7):
+        for band in range(4):
+            j = wave - band
+            if 0 <= j < 4:  # rows [6 band, 6 band + 6), columns [6 j, 6 j + 6)
+                for y in range(6 * band, 6 * band + 6):
+                    labyrinth_pass(
+                        rectangles, *_kernel_arguments(parameters), np.uint64(3), 1, 2,
+                        *_kernel_options(parameters), False, np.zeros(6, np.int64), -1, y,
+                        y + 1, 6 * j + y, 6 * j + 6 + y,
+                    )  # fmt: skip
+    assert not np.array_equal(rectangles, serial)
+
+
+@pytest.mark.parametrize(
+    "option,value", [("border", "wrap"), ("scan", "serpentine"), ("scan", "checkerboard")]
+)
+def test_orders_the_tiles_cannot_follow_run_otherwise_and_say_so(option, value, caplog):
+    parameters = make_parameters(**dict(PRESETS["labyrinth"], **{option: value}))
+    assert exact_order_refusal(parameters) is not None
+    plane = textured_plane((40, 40), seed=2)
+    with caplog.at_level("INFO", logger="napari_labyrinth"):
+        serial, serial_counts, tiled, tiled_counts = serial_and_tiled(plane, parameters, 3, (4, 4))
+    assert_same(serial, serial_counts, tiled, tiled_counts)
+    if value != "checkerboard":  # checkerboard runs its own bands on the threads
+        assert value in caplog.text and "one thread" in caplog.text
+    for other in ("inside", "mirror", "nearest"):
+        assert exact_order_refusal(make_parameters(**dict(PRESETS["paper"], border=other))) is None
+
+
+def test_a_large_plane_uses_the_tiles_by_default_with_the_same_result(monkeypatch):
+    from napari_labyrinth import _engine
+
+    calls = []
+    real = _engine._exact_order
+    monkeypatch.setattr(
+        _engine, "_exact_order", lambda *args: calls.append(args[-1]) or real(*args)
+    )
+    image = (textured_plane((300, 260), seed=4) * 200).astype(np.uint16)
+    one = labyrinth(image, passes=2, workers=1, return_diagnostics=True)
+    assert calls == []
+    many = labyrinth(image, passes=2, workers=3, return_diagnostics=True)
+    assert calls == [3, 3]
+    np.testing.assert_array_equal(many[0], one[0])
+    np.testing.assert_array_equal(many[1], one[1])
+    small = image[:100, :100]
+    np.testing.assert_array_equal(labyrinth(small, workers=2), labyrinth(small, workers=1))
+    assert calls == [3, 3]  # below MIN_PARALLEL_PIXELS: one thread
+
+
+def test_padded_counts_give_each_thread_whole_cache_lines():
+    from napari_labyrinth._engine import padded_counts
+
+    counts = padded_counts(5)
+    assert counts.shape[0] == 5 and counts.strides[0] == 64
+    assert counts.ctypes.data % 64 == 0 and not counts.any()
+
+
+def test_workers_left_over_by_the_planes_tile_each_plane(monkeypatch):
+    from napari_labyrinth import _engine
+
+    calls = []
+    real = _engine._exact_order
+    monkeypatch.setattr(
+        _engine, "_exact_order", lambda *args: calls.append(args[-1]) or real(*args)
+    )
+    plane = (textured_plane((280, 250), seed=6) * 200).astype(np.uint16)
+    stack = np.stack([plane, plane[::-1]])
+    one = labyrinth(stack, passes=1, workers=1, return_diagnostics=True)
+    four = labyrinth(stack, passes=1, workers=4, return_diagnostics=True)
+    assert calls == [2, 2]  # two planes at once, each on two threads
+    np.testing.assert_array_equal(four[0], one[0])
+    np.testing.assert_array_equal(four[1], one[1])

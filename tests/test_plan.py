@@ -171,6 +171,9 @@ def test_plane_label_names_the_axes():
         (0.012345, "0.0123"),
         (1234567.0, "1.23e+06"),
         (0.0, "0"),
+        (0.32, "0.320"),
+        (8.6, "8.60"),
+        (1.0, "1.00"),
     ],
 )
 def test_format_metric(value, text):
@@ -192,8 +195,8 @@ def test_metrics_table_content():
     rows[1]["wall_width"] = 250.0
     column_headers, cells = metric_cells(rows)
     assert column_headers == ["1", "2"]
-    assert cells[0] == ["0.5", "1"]
-    assert cells[2] == ["0.5", "250"]  # wall width
+    assert cells[0] == ["0.500", "1.00"]
+    assert cells[2] == ["0.500", "250"]  # wall width
     assert len(cells) == len(METRIC_ROWS)
 
 

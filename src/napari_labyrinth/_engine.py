@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import heapq
+import logging
 import math
 import queue
 import threading
@@ -24,13 +26,15 @@ import numpy as np
 from .core.codes import DIAGNOSTIC_FIELDS, OPTION_CODES, SKIPPED
 from .core.parameters import LabyrinthParameters
 from .core.planes import PlaneLayout
-from .core.tone_scale import ToneScale
+from .core.tone_scale import ToneScale, integer_plane_tones, write_changed_values
 
 #: dtype of the per-pass diagnostics: one count per field of ``DIAGNOSTIC_FIELDS``.
 DIAGNOSTICS_DTYPE = np.dtype([(name, np.int64) for name in DIAGNOSTIC_FIELDS])
 
 #: Bytes of a cache line: per-thread counters are padded to whole lines.
 _CACHE_LINE = 64
+
+_LOG = logging.getLogger("napari_labyrinth")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -76,8 +80,9 @@ def render(
     """Render every plane of ``image``; yield ``(plane, pass_number, result)`` after each pass.
 
     With several planes and ``workers > 1`` planes run concurrently on
-    threads (the kernel holds no GIL); a single plane gives its workers to
-    the checkerboard bands of :func:`run_pass`. Returns (as the generator's
+    threads (the kernel holds no GIL); the workers left over (all of them
+    for a single plane) go to each plane's :func:`run_pass`: its exact-order
+    tiles or checkerboard bands. Returns (as the generator's
     value) the rendered image, or with ``record_passes`` the input followed by
     the image after every pass, and the diagnostics in the image's layout.
     """
@@ -92,9 +97,14 @@ def render(
 
     def passes_of(index):
         """Every pass over one plane, yielding after each; stops early once ``stop`` is set."""
-        initial = np.ascontiguousarray(scale.to_tones(source[index]))
-        has_nonfinite = image.dtype.kind == "f" and not np.isfinite(initial).all()
-        work = initial.copy()
+        values = source[index]
+        # integer planes: tones in one pass, and no copy of them kept (see _write_back)
+        work = integer_plane_tones(scale, values)
+        initial = None
+        if work is None:
+            initial = np.ascontiguousarray(scale.to_tones(values))
+            work = initial.copy()
+        has_nonfinite = image.dtype.kind == "f" and not np.isfinite(work).all()
         for pass_index in range(passes):
             if stop.is_set():
                 return
@@ -106,13 +116,13 @@ def render(
                 pass_index=pass_index,
                 counts=counts[(pass_index,) + index],
                 has_nonfinite=has_nonfinite,
-                workers=workers if plane_workers == 1 else 1,
+                workers=max(1, workers // plane_workers),  # spare threads: tiles
             )
             if record_passes:
-                write_changes(targets[pass_index][index], initial, work, scale)
+                _write_back(targets[pass_index][index], values, initial, work, scale)
             yield pass_index + 1
         if not record_passes and passes:
-            write_changes(targets[0][index], initial, work, scale)
+            _write_back(targets[0][index], values, initial, work, scale)
 
     flat = {index: int(np.ravel_multi_index(index, leading)) if index else 0 for index in planes}
     if plane_workers == 1:
@@ -193,14 +203,23 @@ def run_pass(
     counts: np.ndarray | None = None,
     has_nonfinite: bool | None = None,
     workers: int = 1,
+    tile: tuple[int, int] | None = None,
 ) -> np.ndarray:
     """Run one pass of the numba kernel on a float32 plane of 0-255 tones, in place.
 
     The low-level entry point (no tone mapping, no copies, no validation of
     ``tones``): ``tones`` must be a C-contiguous 2-D float32 array.
     ``counts``, if given, is an int64 array of ``len(DIAGNOSTIC_FIELDS)`` that
-    the pass increments. With ``scan="checkerboard"``, ``workers`` threads
-    share each colour's rows. Returns ``counts``.
+    the pass increments. Returns ``counts``.
+
+    With ``workers > 1`` a large plane runs on several threads: in the
+    paper's raster order as parallelogram tiles of ``tile = (rows,
+    diagonals)`` pixels (see :func:`exact_order_tiles`), bit for bit the
+    result of one thread; with ``scan="checkerboard"`` in bands of rows of
+    each colour. A raster plane of one band of tiles, or by default of fewer
+    than ``MIN_PARALLEL_PIXELS`` pixels, runs on one thread, as does an order
+    the tiles cannot reproduce (:func:`exact_order_refusal`; the
+    ``napari_labyrinth`` logger says so).
     """
     from .core._kernel import labyrinth_pass  # numba is imported on first use only
 
@@ -210,28 +229,183 @@ def run_pass(
         has_nonfinite = not np.isfinite(tones).all()
     arguments = (tones, *_kernel_arguments(parameters), np.uint64(seed), plane_index, pass_index)
     options = (*_kernel_options(parameters), has_nonfinite)
-    if parameters.scan != "checkerboard":
-        labyrinth_pass(*arguments, *options, counts)
+    if parameters.scan == "checkerboard":
+        _checkerboard_bands(labyrinth_pass, arguments, options, counts, tones.shape[0], workers)
         return counts
+    if workers > 1:
+        refusal = exact_order_refusal(parameters)
+        rows, diagonals = tile or default_tile(tones.shape, workers)
+        if refusal is not None:
+            _LOG.info("one thread for this plane: %s", refusal)
+        elif tones.shape[0] > rows and (tile is not None or tones.size >= MIN_PARALLEL_PIXELS):
+            _exact_order(labyrinth_pass, arguments, options, counts, rows, diagonals, workers)
+            return counts
+    # every call gives every argument: one compiled kernel serves all of them
+    labyrinth_pass(*arguments, *options, counts, -1, 0, -1, 0, -1)
+    return counts
+
+
+#: Planes with fewer pixels run on one thread: the tiles would cost more than they gain.
+MIN_PARALLEL_PIXELS = 256 * 256
+
+
+def exact_order_refusal(parameters: LabyrinthParameters) -> str | None:
+    """Why the parallelogram tiles cannot reproduce the scan of ``parameters``; None if they can.
+
+    The tiles need every pixel to read no neighbour outside its 3 x 3
+    neighbourhood and, in that neighbourhood, the row above and the pixel to
+    its left updated, the rest not yet: the raster scan with the borders
+    ``"inside"``, ``"mirror"`` and ``"nearest"`` (each reads its 3 x 3
+    neighbourhood, mirrored or repeated onto itself).
+    """
+    if parameters.scan == "serpentine":
+        return "scan='serpentine' runs odd rows right to left, which the tiles cannot follow"
+    if parameters.scan != "raster":
+        return f"scan={parameters.scan!r} has its own order"
+    if parameters.border == "wrap":
+        return "border='wrap' makes the first rows and columns neighbours of the last ones"
+    return None
+
+
+def default_tile(shape: tuple[int, int], workers: int) -> tuple[int, int]:
+    """``(rows, diagonals)`` of the tiles of a plane for ``workers`` threads.
+
+    Enough bands (up to 16 per worker) and tiles per band (up to 2 per
+    worker) that the threads soon all run and seldom wait on each other, tiles
+    large enough that their cost is small (``benchmarks/bench_parallel.py
+    --sections tiles model`` measures both).
+    """
+    height, width = shape
+    rows = int(np.clip(height // (16 * workers), 16, 64))
+    return rows, int(np.clip(width // (2 * workers), 128, 512))
+
+
+def exact_order_tiles(shape: tuple[int, int], rows: int, diagonals: int) -> list[list[int]]:
+    """The parallelogram tiles of a plane, band by band of ``rows`` rows.
+
+    Tile j of band i holds the pixels with ``i * rows <= y < (i + 1) * rows``
+    and ``j * diagonals <= x + y < (j + 1) * diagonals``. In coordinates
+    (y, s = x + y) a pixel's neighbours that the raster scan updates before it
+    lie at (-1, -2), (-1, -1), (-1, 0) and (0, -1), those it updates after it
+    at (0, 1), (1, 0), (1, 1) and (1, 2). So a tile reads tiles (i - 1, j - 1),
+    (i - 1, j) and (i, j - 1) updated and tiles (i, j + 1), (i + 1, j) and
+    (i + 1, j + 1) not yet, and no other: tile (i, j) may run as soon as
+    tile (i - 1, j) (or the whole band above, past its last tile) and tile
+    (i, j - 1) are done, beside any other tile. Returns, for every band, the
+    indices j of its non-empty tiles.
+    """
+    height, width = shape
+    bands = []
+    for row_start in range(0, height, rows):
+        row_stop = min(height, row_start + rows)
+        bands.append(list(range(row_start // diagonals, (row_stop + width - 2) // diagonals + 1)))
+    return bands
+
+
+def _exact_order(labyrinth_pass, arguments, options, counts, rows, diagonals, workers) -> None:
+    """Run the tiles of ``exact_order_tiles`` on threads, each as soon as it may run.
+
+    The tiles that may run wait in a queue, the upper band first; a free
+    thread takes the next one, runs it (the kernel holds no GIL), then queues
+    the tiles it freed: the next of its band and the waiting one of the band
+    below. A thread with nothing to take sleeps on a condition variable (never
+    spins), and a thread that the system holds back holds up only the tiles
+    that need its own: the others take the rest of the plane meanwhile.
+    """
+    tones = arguments[0]
     height = tones.shape[0]
+    tiles = exact_order_tiles(tones.shape, rows, diagonals)
+    bands = len(tiles)
+    workers = min(workers, bands)
+    position = [0] * bands  # the index in tiles[band] of the band's next tile
+    finished = [0] * bands  # the band is done up to (not including) tile j = finished[band]
+    waiting = [True] * bands  # neither queued nor running
+    ready: list[int] = []  # bands whose next tile may run (a heap: the upper band first)
+    remaining = [sum(map(len, tiles))]
+    changed = threading.Condition()
+    band_counts = padded_counts(workers)
+    failed: list[BaseException] = []
+
+    def queue_if_ready(band):
+        """Queue ``band`` if its next tile may run (called holding ``changed``)."""
+        if band >= bands or not waiting[band] or position[band] == len(tiles[band]):
+            return
+        j = tiles[band][position[band]]
+        if band == 0 or finished[band - 1] >= min(j, tiles[band - 1][-1]) + 1:
+            waiting[band] = False
+            heapq.heappush(ready, band)
+
+    def work(worker):
+        try:
+            while True:
+                with changed:
+                    while not ready and remaining[0] and not failed:
+                        changed.wait()
+                    if failed or not remaining[0]:
+                        return
+                    band = heapq.heappop(ready)
+                    j = tiles[band][position[band]]
+                labyrinth_pass(
+                    *arguments, *options, band_counts[worker], -1, band * rows,
+                    min(height, (band + 1) * rows), j * diagonals, (j + 1) * diagonals,
+                )  # fmt: skip
+                with changed:
+                    finished[band] = j + 1
+                    position[band] += 1
+                    remaining[0] -= 1
+                    waiting[band] = True
+                    queue_if_ready(band)
+                    queue_if_ready(band + 1)
+                    changed.notify_all()
+        except BaseException as error:  # noqa: BLE001 - raised in the caller's thread
+            with changed:
+                failed.append(error)
+                changed.notify_all()
+
+    queue_if_ready(0)
+    threads = [
+        threading.Thread(target=work, args=(k,), name=f"napari-labyrinth-tiles-{k}")
+        for k in range(1, workers)
+    ]
+    for thread in threads:
+        thread.start()
+    work(0)
+    for thread in threads:
+        thread.join()
+    if failed:
+        raise failed[0]
+    counts += band_counts[:, : len(DIAGNOSTIC_FIELDS)].sum(axis=0)
+
+
+def padded_counts(rows: int) -> np.ndarray:
+    """Zeroed ``(rows, 8)`` int64 counts, each row a whole, aligned cache line.
+
+    Threads that write counts of their own never share a cache line.
+    """
+    stride = max(len(DIAGNOSTIC_FIELDS), _CACHE_LINE // 8)
+    raw = np.zeros(rows * stride + _CACHE_LINE // 8, dtype=np.int64)
+    offset = (-raw.ctypes.data % _CACHE_LINE) // 8
+    return raw[offset : offset + rows * stride].reshape(rows, stride)
+
+
+def _checkerboard_bands(labyrinth_pass, arguments, options, counts, height, workers) -> None:
+    """The four colours in turn, the rows of each split among ``workers`` threads."""
     bands = np.linspace(0, height, min(workers, max(1, height // 2)) + 1).astype(int)
-    # one cache line per band: neighbouring threads never write the same line
-    stride = max(len(DIAGNOSTIC_FIELDS), _CACHE_LINE // counts.itemsize)
-    band_counts = np.zeros((len(bands) - 1, stride), dtype=np.int64)
+    band_counts = padded_counts(len(bands) - 1)
     for colour in range(4):  # the pixels of one colour are independent of each other
         if len(bands) == 2:
-            labyrinth_pass(*arguments, *options, band_counts[0], colour, 0, height)
+            labyrinth_pass(*arguments, *options, band_counts[0], colour, 0, height, 0, -1)
             continue
         with ThreadPoolExecutor(len(bands) - 1) as pool:
             for future in [
                 pool.submit(
-                    labyrinth_pass, *arguments, *options, band_counts[k], colour, start, stop
-                )
+                    labyrinth_pass, *arguments, *options, band_counts[k], colour, start, stop,
+                    0, -1,
+                )  # fmt: skip
                 for k, (start, stop) in enumerate(zip(bands[:-1], bands[1:]))
             ]:
                 future.result()
     counts += band_counts[:, : len(DIAGNOSTIC_FIELDS)].sum(axis=0)
-    return counts
 
 
 @functools.lru_cache(maxsize=64)
@@ -255,6 +429,14 @@ def _kernel_options(parameters: LabyrinthParameters) -> tuple[Any, ...]:
     """The options' codes in the order of ``codes.OPTION_CODES``, then ``include_centre``."""
     codes = tuple(codes[getattr(parameters, name)] for name, codes in OPTION_CODES.items())
     return (*codes, parameters.include_centre)
+
+
+def _write_back(target, values, initial, work, scale) -> None:
+    """The changed tones' values into ``target``: fused for an integer plane (no ``initial``)."""
+    if initial is None:
+        write_changed_values(scale, target, values, work)
+    else:
+        write_changes(target, initial, work, scale)
 
 
 def write_changes(

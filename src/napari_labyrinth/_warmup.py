@@ -24,13 +24,20 @@ DISABLE_VARIABLE = "NAPARI_LABYRINTH_NO_WARMUP"
 _started = False
 
 
+#: The dtypes whose tone loops the warm-up compiles: those of most microscopy layers.
+WARMED_DTYPES = (np.uint8, np.uint16, np.float32)
+
+
 def warm_up() -> None:
-    """Render and measure a small striped image: every kernel the widget uses gets compiled."""
+    """Render and measure a small striped image in each of ``WARMED_DTYPES`` and in colour:
+    every kernel the widget uses gets compiled (the plane is large enough to be tiled)."""
     from . import labyrinth, metrics
 
-    stripes = np.where(np.cos(np.pi * np.indices((64, 64))[1] / 2) > 0, 230, 30).astype(np.uint8)
-    rendered = labyrinth(stripes.T.copy(), passes=1)
-    metrics.describe(stripes.T.astype(np.float32), rendered.astype(np.float32))
+    stripes = np.where(np.cos(np.pi * np.indices((256, 256))[1] / 2) > 0, 230, 30).T
+    for dtype in WARMED_DTYPES:
+        rendered = labyrinth(stripes.astype(dtype), passes=1, workers=2)
+    labyrinth(np.stack([stripes] * 3, axis=-1).astype(np.uint8), channel_axis=-1, passes=1)
+    metrics.describe(stripes.astype(np.float32), rendered.astype(np.float32))
 
 
 def start_in_background() -> None:

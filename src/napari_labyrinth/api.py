@@ -189,8 +189,7 @@ def labyrinth(
     scan : {"raster", "serpentine", "checkerboard"}, optional
         Order of the in-place update from the top-left corner (Sec. 2): rows
         left to right, odd rows right to left, or (not the paper's order)
-        the four checkerboard colours of ``(y % 2, x % 2)`` in turn, which
-        lets a single plane use every worker.
+        the four checkerboard colours of ``(y % 2, x % 2)`` in turn.
     channel_axis : int, optional
         Axis of colour channels. With 4 channels the last one is alpha and
         is kept as it is. How the others are rendered is ``colour``.
@@ -226,9 +225,11 @@ def labyrinth(
         so a part of a stack renders exactly as it does within the whole.
         The last plane's stream index must stay <= 2**63 - 1.
     workers : int, optional
-        Threads to use (default: every core; 1 to 1024). Planes run concurrently; a
-        single plane uses them only with ``scan="checkerboard"``. The result
-        does not depend on it.
+        Threads to use (default: every core; 1 to 1024). Planes run
+        concurrently; a single large plane runs on them in tiles that keep the
+        scan's exact order (not with ``border="wrap"`` or
+        ``scan="serpentine"``: see ``docs/algorithm.md``). The result does not
+        depend on it.
     return_diagnostics : bool, optional
         Also return the per-pass counts (see Returns).
     progress : callable, optional

@@ -34,6 +34,7 @@ from ._engine import render, run_to_end
 from .core.colour import TONES, LuminancePlanes, luminance, luminance_for_limits
 from .core.parameters import LabyrinthParameters
 from ._budget import refuse_unaffordable
+from .core.percentiles import lerp, linear_ranks
 from .core.planes import (
     PlaneLayout,
     normalise_channel_axis,
@@ -313,44 +314,11 @@ def percentiles(array: Any, q: Sequence[float]) -> list[float] | None:
         if count == 0:
             return None
         root = _root_window(dtype, low, high)
-    ranks, gammas = _linear_ranks(count, q)
+    ranks, gammas = linear_ranks(count, q)
     values = _order_statistics(blocks, dtype, root, sorted(set(ranks)))
     previous = np.array([values[r] for r in ranks[0::2]], dtype=dtype)
     following = np.array([values[r] for r in ranks[1::2]], dtype=dtype)
-    return [float(v) for v in _lerp(previous, following, gammas)]
-
-
-def _linear_ranks(count: int, q: Sequence[float]) -> tuple[list[int], np.ndarray]:
-    """Ranks (previous, next for each percentile) and weights, as numpy's 'linear' method."""
-    quantiles = np.true_divide(tuple(q), 100)
-    virtual = (count - 1) * quantiles
-    previous = np.floor(virtual)
-    following = previous + 1
-    above = virtual >= count - 1
-    previous[above] = count - 1
-    following[above] = count - 1
-    previous = previous.astype(np.intp)
-    following = following.astype(np.intp)
-    # numpy computes gamma from the *fixed* previous index (-1 for the last element)
-    fixed_previous = np.where(above, -1, previous)
-    gammas = np.asanyarray(virtual - fixed_previous, dtype=virtual.dtype)
-    ranks = [int(r) for pair in zip(previous, following) for r in pair]
-    return ranks, gammas
-
-
-def _lerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """numpy's private ``_lerp`` of ``np.percentile``, operation for operation."""
-    diff_b_a = b - a
-    result = np.add(a, diff_b_a * t)
-    np.subtract(
-        b,
-        diff_b_a * (1 - t),
-        out=result,
-        where=t >= 0.5,
-        casting="unsafe",
-        dtype=type(result.dtype),
-    )
-    return result
+    return [float(v) for v in lerp(previous, following, gammas)]
 
 
 @dataclasses.dataclass(frozen=True)

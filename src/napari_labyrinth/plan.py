@@ -393,10 +393,13 @@ def plane_label(axis_labels: Sequence[str], index: tuple[int, ...]) -> str:
 
 
 def format_metric(value: float) -> str:
-    """A metric in a table cell: 3 significant digits, no exponent below 10**6."""
+    """A metric in a table cell: 3 significant digits (trailing zeros kept, so that a
+    column reads alike), no exponent below 10**6."""
     if not math.isfinite(value):
         return "–"
-    return f"{value:.0f}" if 100 <= abs(value) < 1e6 else f"{value:.3g}"
+    if value == 0:
+        return "0"
+    return f"{value:.0f}" if 100 <= abs(value) < 1e6 else f"{value:#.3g}"
 
 
 def metric_row_headers() -> list[tuple[str, str]]:

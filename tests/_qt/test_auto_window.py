@@ -72,10 +72,12 @@ def test_the_plot_notes_a_window_open_at_an_end(qtbot):
     plot = WindowPlot()
     qtbot.addWidget(plot)
     plot.show_window(closed)
-    height = plot.height()
     assert closed.open_note == "" and "probed" not in closed.summary()
+    assert [text for _, text in plot.plot_rects().legend] == [closed.summary()]
     plot.show_window(open_low)
     assert open_low.open_note == "it reaches the lowest V probed"
     assert open_low.summary().endswith("; it reaches the lowest V probed)")
-    assert plot.height() > height  # a line for the note under the curve
+    # the note is a caption of its own under the curve
+    captions = [text for _, text in plot.plot_rects().legend]
+    assert captions == [open_low.summary(note=False), open_low.open_note]
     plot.grab()  # paints without error

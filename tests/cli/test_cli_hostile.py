@@ -302,7 +302,12 @@ def _start_slow_write(tmp_path, output):
         )
     args = [sys.executable, "-m", "napari_labyrinth.cli", "render", str(stack), "-o",
             str(output), "--passes", "30", "--overwrite"]
-    child = subprocess.Popen(args, env=_env(), stderr=subprocess.PIPE, stdout=subprocess.DEVNULL)
+    # a shell's background job starts with SIGINT ignored, and Python then keeps it ignored:
+    # give the child the default disposition, as a terminal's foreground command has
+    child = subprocess.Popen(
+        args, env=_env(), stderr=subprocess.PIPE, stdout=subprocess.DEVNULL,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     deadline = time.monotonic() + 120
     while not list(tmp_path.glob(f".{output.name}.*.tmp")):
         assert child.poll() is None and time.monotonic() < deadline, "the write never started"

@@ -330,3 +330,90 @@ def test_random_stream_depends_on_seed_plane_and_pass():
         assert not np.array_equal(base, other), change
     again, _ = run_kernel(plane)
     assert_bitwise_equal(base, again)
+
+
+def smooth_plane(shape, seed):
+    """A plane with smooth regions (runs of pixels Eq. 2 keeps) and edges."""
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[: shape[0], : shape[1]]
+    plane = 60 + 40 * np.sin(x / 5.0) + np.where(y > shape[0] // 2, 90, 0)
+    return np.clip(plane + rng.normal(0, 3, shape), 0, 255).astype(np.float32)
+
+
+@pytest.mark.parametrize("preset", sorted(PRESETS))
+@pytest.mark.parametrize("include_centre", [False, True])
+@pytest.mark.parametrize("variance_ratio", ["sqrt(V/N)/M", "sqrt(V)/M"])
+def test_kernel_matches_reference_on_larger_planes(preset, include_centre, variance_ratio):
+    # long runs of kept interior pixels take the kernel's fast loop
+    plane = smooth_plane((23, 37), seed=len(preset))
+    options = {
+        name: PRESETS[preset][name]
+        for name in ("mean_threshold", "variance_threshold", "variance_action")
+        + ("condition_order", "border", "on_exhausted", "scan")
+    }
+    options.update(include_centre=include_centre, variance_ratio=variance_ratio, seed=5)
+    got, got_counts = run_kernel(plane, **options)
+    want, want_counts = run_reference(plane, **options)
+    assert_bitwise_equal(got, want)
+    assert got_counts == want_counts
+    assert got_counts["kept_by_mean"] > 0
+
+
+def _interior_ratios(plane, y, x, include_centre, variance_ratio):
+    """Eq. 2's and Eq. 4's ratios of an interior pixel, computed as the oracle does."""
+    values = [float(plane[y + dy, x + dx]) for dy in (-1, 0, 1) for dx in (-1, 0, 1)]
+    g = values.pop(4)
+    total = 0.0
+    for value in values:
+        total += value
+    if include_centre:
+        values.append(g)
+        mean = (total + g) / 9
+    else:
+        mean = total / 8
+    squares = 0.0
+    for value in values:
+        squares += (value - mean) * (value - mean)
+    variance = squares / len(values)
+    if variance_ratio == "sqrt(V/N)/M":
+        variance /= len(values)
+    return abs(g - mean) / mean, math.sqrt(variance) / mean
+
+
+@pytest.mark.parametrize("condition_order", ["mean_first", "variance_first"])
+@pytest.mark.parametrize("include_centre", [False, True])
+@pytest.mark.parametrize("variance_ratio", ["sqrt(V/N)/M", "sqrt(V)/M"])
+def test_thresholds_equal_to_a_pixel_s_ratios_decide_as_the_oracle(
+    condition_order, include_centre, variance_ratio
+):
+    # t and V exactly at (and one float beside) the ratios of interior pixels:
+    # the kernel's division-free comparisons must decide as the divisions do
+    plane = smooth_plane((7, 9), seed=3)
+    for y, x in [(2, 3), (3, 4), (4, 6)]:
+        mean_ratio, spread_ratio = _interior_ratios(plane, y, x, include_centre, variance_ratio)
+        for t in (mean_ratio, np.nextafter(mean_ratio, 0), np.nextafter(mean_ratio, 1)):
+            for v in (spread_ratio, np.nextafter(spread_ratio, 0), np.nextafter(spread_ratio, 1)):
+                options = dict(
+                    mean_threshold=float(t),
+                    variance_threshold=float(v),
+                    condition_order=condition_order,
+                    include_centre=include_centre,
+                    variance_ratio=variance_ratio,
+                    variance_action="push_in_range",
+                    max_tries=3,
+                )
+                got, got_counts = run_kernel(plane, **options)
+                want, want_counts = run_reference(plane, **options)
+                assert_bitwise_equal(got, want)
+                assert got_counts == want_counts
+
+
+def test_eq2_threshold_is_inclusive_for_interior_pixels():
+    # the centre of a 3 x 3 plane: M = 100, |112 - 100| / 100 == 0.12 exactly
+    plane = np.full((3, 3), 100.0, dtype=np.float32)
+    plane[1, 1] = 112.0
+    options = dict(max_tries=0, variance_threshold=10.0)
+    _, counts = run_kernel(plane, mean_threshold=0.12, **options)
+    assert counts["kept_by_mean"] == 9
+    _, counts = run_kernel(plane, mean_threshold=float(np.nextafter(0.12, 0)), **options)
+    assert counts["kept_by_mean"] == 8 and counts["out_of_tries"] == 1

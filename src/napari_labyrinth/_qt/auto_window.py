@@ -22,15 +22,13 @@ from qtpy.QtWidgets import QSizePolicy, QWidget
 from ..plan import Choices, LayerSnapshot, make_plan
 from ..window import Window, window_for
 from .form import ParameterForm
+from .plot_layout import INSET, SWATCH, PlotLayout, compact_font, plot_layout
 
 #: The field the button fills.
 FIELD = "variance_threshold"
 
 _CURVE = "#f0a030"
 _WINDOW = QColor(64, 176, 240, 60)
-
-#: Height of the plot, and of the line of its note on an open window, in pixels.
-_HEIGHT, _LINE = 110, 14
 
 
 class AutoWindow:
@@ -134,8 +132,8 @@ class WindowPlot(QWidget):
     def __init__(self) -> None:
         super().__init__()
         self.window: Window | None = None
-        self.setFixedHeight(_HEIGHT)
-        self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
+        self.setFont(compact_font(self.font()))
+        self.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
         self.setToolTip(
             "Edge enhancement of the probe against V (log scale): the shaded band is the "
             "window (at least 90 % of the best), the line the chosen V. A window that "
@@ -146,9 +144,32 @@ class WindowPlot(QWidget):
     def show_window(self, window: Window | None) -> None:
         """Plot ``window``'s curve and show the plot (None hides it)."""
         self.window = window
-        self.setFixedHeight(_HEIGHT + (_LINE if window is not None and window.open_note else 0))
         self.setVisible(window is not None)
+        if window is not None:
+            self.fit_height()
         self.update()
+
+    def plot_rects(self) -> PlotLayout:
+        """Where the curve, the V axis and the caption go at the widget's width."""
+        thresholds = [v for v in self.window.thresholds if v > 0]
+        axis = (f"{thresholds[0]:.3g}", "V (log scale)", f"{thresholds[-1]:.3g}")
+        note = [self.window.open_note] if self.window.open_note else []  # a line of its own
+        return plot_layout(
+            self.width(), self.fontMetrics(), axis, [self.window.summary(note=False), *note]
+        )
+
+    def fit_height(self) -> bool:
+        """Take the height the layout needs at the current width; whether it changed."""
+        height = self.plot_rects().height
+        if height == self.height():
+            return False
+        self.setFixedHeight(height)
+        return True
+
+    def resizeEvent(self, event) -> None:  # noqa: N802 - Qt's name
+        super().resizeEvent(event)
+        if self.window is not None:
+            self.fit_height()
 
     def x_of(self, value: float, frame: QRectF) -> float:
         """Horizontal position of ``value`` in ``frame`` (log scale over the probed V)."""
@@ -164,13 +185,15 @@ class WindowPlot(QWidget):
         painter = QPainter(self)
         painter.setRenderHint(QPainter.RenderHint.Antialiasing)
         text = self.palette().windowText().color()
-        frame = QRectF(8, 6, self.width() - 16, _HEIGHT - 30)
+        rects = self.plot_rects()
+        box = rects.data
+        frame = box.adjusted(INSET, INSET, -INSET, -INSET)  # the end dots clear the box
         if window.found:
             left, right = self.x_of(window.low, frame), self.x_of(window.high, frame)
-            band = QRectF(left - 2, frame.top(), right - left + 4, frame.height())
+            band = QRectF(left - 2, box.top(), right - left + 4, box.height())
             painter.fillRect(band, _WINDOW)
         painter.setPen(QPen(text, 1))
-        painter.drawRect(frame)
+        painter.drawRect(box)
         finite = [v for v in window.edge_enhancement if math.isfinite(v)]
         low, high = min(0.0, *finite, 0.0), max(0.0, *finite, 0.0)
         high += 0.1 * ((high - low) or 1.0)
@@ -194,8 +217,16 @@ class WindowPlot(QWidget):
         best = self.x_of(window.best, frame)
         painter.setPen(QPen(text, 1, Qt.PenStyle.DashLine))
         painter.drawLine(QPointF(best, frame.top()), QPointF(best, frame.bottom()))
+        (caption_rect, caption), *notes = rects.legend
+        middle = caption_rect.center().y()
+        painter.drawLine(  # the caption's swatch: the dashed line of the chosen V
+            QPointF(caption_rect.left() - SWATCH + 1, middle),
+            QPointF(caption_rect.left() - 4, middle),
+        )
         painter.setPen(QPen(text, 1))
-        painter.drawText(QPointF(frame.left(), frame.bottom() + 16), window.summary(note=False))
-        if window.open_note:  # the window may go on beyond the V probed
-            painter.drawText(QPointF(frame.left(), frame.bottom() + 30), window.open_note)
+        for rect, flags, axis_text in rects.axis:
+            painter.drawText(rect, flags, axis_text)
+        painter.drawText(caption_rect, int(Qt.AlignmentFlag.AlignLeft), caption)
+        for note_rect, note in notes:  # the window may go on beyond the V probed
+            painter.drawText(note_rect, int(Qt.AlignmentFlag.AlignLeft), note)
         painter.end()

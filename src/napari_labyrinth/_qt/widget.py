@@ -27,7 +27,7 @@ from magicgui.widgets import (
 from napari.layers import Image
 from napari.utils.notifications import show_error, show_info
 from napari.viewer import Viewer
-from qtpy.QtCore import Qt
+from qtpy.QtCore import Qt, QTimer
 from qtpy.QtWidgets import QProgressBar, QScrollArea, QVBoxLayout, QWidget
 from superqt import QCollapsible
 
@@ -93,6 +93,8 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         same input and mode; live preview of the plane on screen.
     progress_bar : QProgressBar
         The running run's steps.
+    scroll_area : QScrollArea
+        Holds the sections; scrolls to the metrics when a stack run shows them.
     preview : Preview
     worker : napari worker or None
         The running worker, if any.
@@ -245,6 +247,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             "The points the paper leaves open; the preset chooses a reading of each."
         )
         self.reading_section.layout().setContentsMargins(0, 2, 0, 2)
+        self.reading_section.layout().setSpacing(0)
         self.reading_section.addWidget(self.form.reading_box.native)
         self.reading_section.collapse(animate=False)
 
@@ -265,15 +268,20 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         layout.addWidget(self.metrics_table)
         layout.addWidget(self.metrics_plot)
         layout.addStretch(1)
-        scroll = QScrollArea()
+        self.scroll_area = scroll = QScrollArea()
         scroll.setWidgetResizable(True)
         scroll.setWidget(content)
         scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
         outer = QVBoxLayout(self)
         outer.setContentsMargins(0, 0, 0, 0)
         outer.addWidget(scroll)
-        content.setMinimumWidth(330)
-        self.setMinimumWidth(350)
+        content.setMinimumWidth(365)
+        self.setMinimumWidth(385)
+
+    def showEvent(self, event) -> None:  # noqa: N802 - Qt's name
+        super().showEvent(event)
+        for box in (self.inputs.box, self.form.parameter_box, self.form.reading_box):
+            _fit_label_widths(box)
 
     # -- choices -----------------------------------------------------------------------------
 
@@ -432,7 +440,23 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             self.metrics_table.show_passes(outcome.metric_rows)
             self.metrics_plot.show_passes(outcome.metric_rows)
             self._shown_plane = tuple(plan.visible_index)
+            QTimer.singleShot(0, self._reveal_metrics)
         self.status.value = f"Added {plan.description} ({outcome.seconds:.1f} s)"
+
+    def _reveal_metrics(self, attempts: int = 10, last: tuple = ()) -> None:
+        """Scroll the dock to the metrics just shown: the plot in full, and the table's
+        title if both do not fit. Qt lays them out over a few turns of the event loop
+        (their heights follow their width): look again until their geometry settles."""
+        if self._closed or not self.metrics_plot.isVisible():
+            return
+        self.metrics_table.fit()
+        self.metrics_plot.fit_height()
+        self.scroll_area.ensureWidgetVisible(self.metrics_plot, 0, 0)
+        self.scroll_area.ensureWidgetVisible(self.metrics_title, 0, 0)
+        plot, content = self.metrics_plot, self.scroll_area.widget()
+        geometry = (content.height(), plot.y(), plot.height(), self.metrics_table.height())
+        if geometry != last and attempts > 1:
+            QTimer.singleShot(0, lambda: self._reveal_metrics(attempts - 1, geometry))
 
     def _on_progress(self, step: int) -> None:
         if self._closed:  # after close the Qt side of the widget may be gone
@@ -486,3 +510,21 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
     def comparing(self) -> bool:
         """Whether the compare (grid) view is on."""
         return self._compare.active
+
+
+def _fit_label_widths(box: Container) -> None:
+    """Give the row labels of ``box`` the width their text needs as napari draws them.
+
+    magicgui sizes them with the application's font and no padding; napari's
+    stylesheet draws them larger and padded, which cut the end of the longest
+    (``variance threshold V``).
+    """
+    rows = [row for row in (widget._labeled_widget() for widget in box) if row is not None]
+    labels = [row._label_widget.native for row in rows]
+    if not labels:
+        return
+    for label in labels:
+        label.ensurePolished()
+    widest = max(label.sizeHint().width() for label in labels)
+    for row in rows:
+        row.label_width = widest

@@ -214,11 +214,110 @@ def _redraw(g, mean, mean_threshold, neighbour_sum, n, include_centre, pixel_key
     return accepted, draw
 
 
+# Bounds within which a product or square is a normal float64: there each
+# rounding is within a relative 2**-53, so a margin of 2**-30 (2**-28 for a
+# square) decides a comparison exactly as the rounded quotient would.
+_TINY, _HUGE = 1e-280, 1e280
+
+
+@njit(inline="always")
+def _at_most_ratio(numerator, mean, threshold):
+    """``_ratio(numerator, mean) <= threshold``, mostly without the division.
+
+    ``numerator`` below ``threshold * mean`` by more than the margin gives a
+    quotient below t, above it by more than the margin one above t's next
+    float; near the bound, or where the product is not a normal float, divide.
+    """
+    bound = threshold * mean
+    if mean > 0.0 and _TINY < bound < _HUGE:
+        if numerator < bound * (1.0 - 2.0**-30):
+            return True
+        if numerator > bound * (1.0 + 2.0**-30):
+            return False
+    return _ratio(numerator, mean) <= threshold
+
+
+@njit(inline="always")
+def _above_root_ratio(squared, mean, threshold):
+    """``_ratio(math.sqrt(squared), mean) > threshold``, mostly without root or division.
+
+    Compares ``squared`` with ``(threshold * mean) ** 2`` as ``_at_most_ratio``
+    compares with the product; near the bound, take the root and divide.
+    """
+    bound = threshold * mean
+    bound *= bound
+    if mean > 0.0 and _TINY < bound < _HUGE:
+        if squared > bound * (1.0 + 2.0**-28):
+            return True
+        if squared < bound * (1.0 - 2.0**-28):
+            return False
+    return _ratio(math.sqrt(squared), mean) > threshold
+
+
+@njit(inline="always")
+def _kept_run(plane, y, x, x_stop, mean_threshold, variance_threshold, variance_first,
+              variance_ratio, include_centre):  # fmt: skip
+    """The first of the interior pixels ``x, x + 1, ... < x_stop`` of row y that
+    Eq. 2 does not keep as they are (with Eq. 4 first: that Eq. 4 or Eq. 2 does not keep).
+
+    The same arithmetic as the full path of ``labyrinth_pass``, with N = 8 or 9
+    known; the pixels before the one returned are kept (none changes).
+    """
+    # the 3 x 3 window slides right: two of its columns are read once, before
+    above_left, above = np.float64(plane[y - 1, x - 1]), np.float64(plane[y - 1, x])
+    left, g = np.float64(plane[y, x - 1]), np.float64(plane[y, x])
+    below_left, below = np.float64(plane[y + 1, x - 1]), np.float64(plane[y + 1, x])
+    while x < x_stop:
+        above_right = np.float64(plane[y - 1, x + 1])
+        right = np.float64(plane[y, x + 1])
+        below_right = np.float64(plane[y + 1, x + 1])
+        # Eq. 1 in the order of _interior_sum and _interior_squares (row-major)
+        neighbour_sum = above_left
+        neighbour_sum += above
+        neighbour_sum += above_right
+        neighbour_sum += left
+        neighbour_sum += right
+        neighbour_sum += below_left
+        neighbour_sum += below
+        neighbour_sum += below_right
+        if include_centre:
+            mean = (neighbour_sum + g) / 9
+        else:  # the same float64 as a division by 8, a power of two
+            mean = neighbour_sum * 0.125
+        deviation = abs(g - mean)
+        if variance_first:
+            squares = (above_left - mean) * (above_left - mean)
+            squares += (above - mean) * (above - mean)
+            squares += (above_right - mean) * (above_right - mean)
+            squares += (left - mean) * (left - mean)
+            squares += (right - mean) * (right - mean)
+            squares += (below_left - mean) * (below_left - mean)
+            squares += (below - mean) * (below - mean)
+            squares += (below_right - mean) * (below_right - mean)
+            if include_centre:
+                squares += (g - mean) * (g - mean)
+                variance = squares / 9
+                squared_spread = variance / 9 if variance_ratio == SQRT_V_OVER_N else variance
+            else:
+                variance = squares * 0.125
+                squared_spread = variance * 0.125 if variance_ratio == SQRT_V_OVER_N else variance
+            if _above_root_ratio(squared_spread, mean, variance_threshold):
+                return x
+        if not _at_most_ratio(deviation, mean, mean_threshold):
+            return x
+        above_left, above = above, above_right
+        left, g = g, right
+        below_left, below = below, below_right
+        x += 1
+    return x
+
+
 @njit(cache=True, nogil=True)
 def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone_low, tone_high,
                    max_tries, seed, plane_index, pass_index, border, variance_ratio,
                    variance_action, condition_order, on_exhausted, scan, include_centre,
-                   has_nonfinite, counts, colour=-1, row_start=0, row_stop=-1):  # fmt: skip
+                   has_nonfinite, counts, colour=-1, row_start=0, row_stop=-1,
+                   diagonal_start=0, diagonal_stop=-1):  # fmt: skip
     """Run one pass of the algorithm over ``plane`` in place (Eq. 1-4).
 
     Parameters
@@ -236,10 +335,22 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
         all-finite plane: interior pixels skip the checks).
     counts : (6,) int64 array
         Incremented at the diagnostic codes (``codes.KEPT_BY_MEAN``, ...).
-    colour, row_start, row_stop : int, optional
+    colour : int, optional
         -1: every pixel in the order of ``scan``; 0-3: only the pixels with
         ``(y % 2, x % 2) == (colour // 2, colour % 2)``, none of them
         neighbours, so bands of rows of one colour may run on threads at once.
+    row_start, row_stop, diagonal_start, diagonal_stop : int, optional
+        Only the rows ``row_start <= y < row_stop`` and, in a raster or
+        serpentine scan, the pixels with ``diagonal_start <= x + y <
+        diagonal_stop``: a parallelogram tile of the exact-order schedule
+        (``_engine``). A stop of -1 is the end of the plane.
+
+    Notes
+    -----
+    Interior pixels of an all-finite plane that are kept as they are (the
+    common case) run in a tight loop (``_kept_run``), one copy per value of
+    ``condition_order`` and ``include_centre``; every other pixel takes the
+    full path below it. Both agree with ``_reference.py`` bit for bit.
     """
     height, width = plane.shape
     key = stream_key(seed, plane_index, pass_index)
@@ -251,17 +362,55 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
     # they can be updated in any order, by several threads, with one result
     x_first = 0 if colour < 0 else colour & 1
     x_step = 1 if colour < 0 else 2
-    columns = (width - x_first + x_step - 1) // x_step
+    kept = left = pushed_count = redrawn = exhausted = skipped = 0
     for y in range(row_start, row_stop):
         if colour >= 0 and (y & 1) != (colour >> 1):
             continue
         reverse = scan == SERPENTINE and (y & 1) == 1
         interior_row = not has_nonfinite and 0 < y < height - 1
-        for step in range(columns):
-            x = width - 1 - step if reverse else x_first + step * x_step
+        x_start = max(x_first, diagonal_start - y)
+        x_stop = width if diagonal_stop < 0 else min(width, diagonal_stop - y)
+        # interior pixels that Eq. 2 keeps (Eq. 4 first: that keeps) run in a
+        # tight loop of their own (_kept_run); the others take the full path
+        fast_row = interior_row and not reverse and colour < 0
+        fast_start, fast_stop = max(x_start, 1), min(x_stop, width - 1)
+        not_kept = -1  # the pixel at which the last run stopped
+        steps = (x_stop - x_start + x_step - 1) // x_step
+        step = -1
+        while step < steps - 1:  # a for loop that a run of kept pixels can advance
+            step += 1
+            x = x_stop - 1 - step if reverse else x_start + step * x_step
+            if fast_row and fast_start <= x < fast_stop and x != not_kept:
+                # one copy of the loop per case: no test of the options inside it
+                if variance_first:
+                    if include_centre:
+                        x_next = _kept_run(
+                            plane, y, x, fast_stop, mean_threshold, variance_threshold,
+                            True, variance_ratio, True,
+                        )  # fmt: skip
+                    else:
+                        x_next = _kept_run(
+                            plane, y, x, fast_stop, mean_threshold, variance_threshold,
+                            True, variance_ratio, False,
+                        )  # fmt: skip
+                elif include_centre:
+                    x_next = _kept_run(
+                        plane, y, x, fast_stop, mean_threshold, variance_threshold,
+                        False, variance_ratio, True,
+                    )  # fmt: skip
+                else:
+                    x_next = _kept_run(
+                        plane, y, x, fast_stop, mean_threshold, variance_threshold,
+                        False, variance_ratio, False,
+                    )  # fmt: skip
+                if x_next > x:
+                    kept += x_next - x
+                    step += x_next - x - 1
+                    not_kept = x_next
+                    continue
             g = np.float64(plane[y, x])
             if not math.isfinite(g):
-                counts[SKIPPED] += 1
+                skipped += 1
                 continue
             # Eq. 1 over the 8 nearest and next-nearest neighbours: interior
             # pixels of an all-finite plane (the common, speed-critical case)
@@ -272,15 +421,20 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
             else:
                 count, neighbour_sum = _gather(plane, y, x, border, neighbours)
                 if count == 0:
-                    counts[SKIPPED] += 1
+                    skipped += 1
                     continue
             n = count + 1 if include_centre else count
-            mean = (neighbour_sum + g) / n if include_centre else neighbour_sum / n
+            if include_centre:
+                mean = (neighbour_sum + g) / n
+            elif interior:  # n = 8: the same float64 as a division by 8, a power of two
+                mean = neighbour_sum * 0.125
+            else:
+                mean = neighbour_sum / n
 
             # Eq. 2 decides first unless the order is variance-first.
             mean_ratio = _ratio(abs(g - mean), mean)
             if mean_ratio <= mean_threshold and not variance_first:
-                counts[KEPT_BY_MEAN] += 1
+                kept += 1
                 continue
 
             # Eq. 4: the variance condition.
@@ -290,11 +444,17 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
                 squares = _gathered_squares(neighbours, count, mean)
             if include_centre:
                 squares += (g - mean) * (g - mean)
-            variance = squares / n
-            spread = math.sqrt(variance / n if variance_ratio == SQRT_V_OVER_N else variance)
+            if interior and not include_centre:
+                variance = squares * 0.125
+                spread = math.sqrt(
+                    variance * 0.125 if variance_ratio == SQRT_V_OVER_N else variance
+                )
+            else:
+                variance = squares / n
+                spread = math.sqrt(variance / n if variance_ratio == SQRT_V_OVER_N else variance)
             if _ratio(spread, mean) > variance_threshold:
                 if variance_action == LEAVE:
-                    counts[LEFT_BY_VARIANCE] += 1
+                    left += 1
                     continue
                 pushed, draw = _push(
                     g, mean, mean_ratio, neighbour_sum, n, include_centre,
@@ -303,12 +463,12 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
                 )  # fmt: skip
                 if pushed:
                     plane[y, x] = draw
-                    counts[PUSHED] += 1
+                    pushed_count += 1
                 else:
-                    counts[LEFT_BY_VARIANCE] += 1
+                    left += 1
                 continue
             if mean_ratio <= mean_threshold:
-                counts[KEPT_BY_MEAN] += 1
+                kept += 1
                 continue
 
             # Eq. 3: draws in the tone range of g until one satisfies Eq. 2.
@@ -318,8 +478,14 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
             )  # fmt: skip
             if accepted:
                 plane[y, x] = draw
-                counts[REDRAWN] += 1
+                redrawn += 1
             else:
-                counts[OUT_OF_TRIES] += 1
+                exhausted += 1
                 if on_exhausted != KEEP and max_tries > 0:
                     plane[y, x] = draw
+    counts[KEPT_BY_MEAN] += kept
+    counts[LEFT_BY_VARIANCE] += left
+    counts[PUSHED] += pushed_count
+    counts[REDRAWN] += redrawn
+    counts[OUT_OF_TRIES] += exhausted
+    counts[SKIPPED] += skipped

@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from .percentiles import integer_percentiles
+
 #: Percentiles of the finite values that set the default tone limits of
 #: every dtype but uint8 (robust to a few hot or dead pixels).
 DEFAULT_PERCENTILES = (0.5, 99.5)
@@ -115,7 +117,7 @@ def resolve_tone_scale(values: np.ndarray, tone_limits: tuple[float, float] | No
     finite = values if values.dtype.kind in "iu" else values[np.isfinite(values)]
     if finite.size == 0:
         return ToneScale(0.0, 1.0)
-    low, high = (float(v) for v in np.percentile(finite, DEFAULT_PERCENTILES))
+    low, high = default_percentiles(finite)
     return ToneScale(*_finite_span(*separated_limits(low, high), given=False))
 
 
@@ -161,3 +163,57 @@ def representable(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
         return np.clip(np.rint(values), info.min, info.max).astype(dtype)
     limit = float(np.finfo(dtype).max)
     return np.clip(values, -limit, limit).astype(dtype)
+
+
+def default_percentiles(values: np.ndarray) -> list[float]:
+    """The ``DEFAULT_PERCENTILES`` of ``values`` (finite, at least one), as ``np.percentile``.
+
+    8- and 16-bit integers are counted (one pass, no copy of the image) and
+    give numpy's floats bit for bit; other dtypes go through ``np.percentile``.
+    """
+    if values.dtype.kind in "iu" and values.dtype.itemsize <= 2:
+        return integer_percentiles(values, DEFAULT_PERCENTILES)
+    return [float(v) for v in np.percentile(values, DEFAULT_PERCENTILES)]
+
+
+def integer_plane_tones(scale: ToneScale, values: np.ndarray) -> np.ndarray | None:
+    """``scale.to_tones(values)`` of a C-contiguous 2-D integer plane in one pass; else None.
+
+    With :func:`write_changed_values` the render of an integer plane keeps no
+    copy of its initial tones: the write-back computes them again.
+    """
+    if not _fused(values):
+        return None
+    from ._tone_loops import integer_tones  # numba is imported on first use only
+
+    tones = np.empty(values.shape, dtype=np.float32)
+    integer_tones(values, tones, *_loop_scale(scale, values.dtype))
+    return tones
+
+
+def write_changed_values(
+    scale: ToneScale, target: np.ndarray, values: np.ndarray, tones: np.ndarray
+) -> None:
+    """Write into ``target`` (holding ``values``) the values of the tones that changed.
+
+    A tone has changed where its bits differ from those of
+    ``integer_plane_tones(scale, values)``; its value is
+    ``scale.from_tones(tone, target.dtype)``. One pass, no temporary array.
+    ``values`` and ``target`` are C-contiguous integer planes of one dtype.
+    """
+    from ._tone_loops import write_back  # numba is imported on first use only
+
+    info = np.iinfo(values.dtype)
+    write_back(
+        target, values, tones, *_loop_scale(scale, values.dtype), float(info.min), float(info.max)
+    )
+
+
+def _fused(values: np.ndarray) -> bool:
+    return values.dtype.kind in "iu" and values.ndim == 2 and values.flags.c_contiguous
+
+
+def _loop_scale(scale: ToneScale, dtype: np.dtype) -> tuple[Any, ...]:
+    """low, gain, both as float32, and whether the values need float64 (as ``to_tones``)."""
+    gain = scale._gain
+    return scale.low, gain, np.float32(scale.low), np.float32(gain), np.dtype(dtype).itemsize > 2

@@ -1,0 +1,75 @@
+"""``numpy.percentile`` (its default "linear" method), bit for bit, from ranks.
+
+The default tone limits are percentiles of an image's values. numpy finds them
+by partitioning a copy of the whole image; an image of 8- or 16-bit integers
+holds at most 65536 distinct values, so one count of each value gives the
+order statistics, and the interpolation below gives numpy's exact floats.
+``lazy.py`` takes the same route over the blocks of a dask array.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+
+def linear_ranks(count: int, q: Sequence[float]) -> tuple[list[int], np.ndarray]:
+    """Ranks (previous, next for each percentile) and weights, as numpy's 'linear' method."""
+    quantiles = np.true_divide(tuple(q), 100)
+    virtual = (count - 1) * quantiles
+    previous = np.floor(virtual)
+    following = previous + 1
+    above = virtual >= count - 1
+    previous[above] = count - 1
+    following[above] = count - 1
+    previous = previous.astype(np.intp)
+    following = following.astype(np.intp)
+    # numpy computes gamma from the *fixed* previous index (-1 for the last element)
+    fixed_previous = np.where(above, -1, previous)
+    gammas = np.asanyarray(virtual - fixed_previous, dtype=virtual.dtype)
+    ranks = [int(r) for pair in zip(previous, following) for r in pair]
+    return ranks, gammas
+
+
+def lerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """numpy's private ``_lerp`` of ``np.percentile``, operation for operation."""
+    diff_b_a = b - a
+    result = np.add(a, diff_b_a * t)
+    np.subtract(
+        b,
+        diff_b_a * (1 - t),
+        out=result,
+        where=t >= 0.5,
+        casting="unsafe",
+        dtype=type(result.dtype),
+    )
+    return result
+
+
+def counts_percentiles(counts: np.ndarray, offset: int, dtype, q: Sequence[float]) -> list[float]:
+    """``np.percentile`` of values of ``dtype`` of which ``counts[k]`` equal ``offset + k``."""
+    ranks, gammas = linear_ranks(int(counts.sum()), q)
+    # the value of rank r is the first whose cumulative count exceeds r
+    values = np.searchsorted(np.cumsum(counts), ranks, side="right") + offset
+    values = values.astype(dtype)
+    return [float(v) for v in lerp(values[0::2], values[1::2], gammas)]
+
+
+def integer_percentiles(values: np.ndarray, q: Sequence[float]) -> list[float]:
+    """``[float(v) for v in np.percentile(values, q)]`` of 8- or 16-bit integers, by counting.
+
+    One pass over the values (a numba loop) and a few operations on the 256
+    or 65536 counts, instead of numpy's partition of a copy of the image.
+    """
+    from ._tone_loops import count_values  # numba is imported on first use only
+
+    dtype = np.dtype(values.dtype)
+    if dtype.kind not in "iu" or dtype.itemsize > 2:
+        raise TypeError(f"integer_percentiles takes 8- or 16-bit integers, not {dtype}")
+    if values.size == 0:
+        raise ValueError("integer_percentiles of no values")
+    info = np.iinfo(dtype)
+    counts = np.zeros(int(info.max) - int(info.min) + 1, dtype=np.int64)
+    count_values(values.reshape(-1), int(info.min), counts)
+    return counts_percentiles(counts, int(info.min), dtype, q)

@@ -1,0 +1,80 @@
+"""Default tone limits by counting values: numpy.percentile's floats, bit for bit."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from napari_labyrinth.core.percentiles import integer_percentiles
+from napari_labyrinth.core.tone_scale import (
+    DEFAULT_PERCENTILES,
+    default_percentiles,
+    resolve_tone_scale,
+)
+
+SMALL_INTEGERS = [np.uint8, np.int8, np.uint16, np.int16]
+Q = (0.0, 0.5, 1.0, 25.0, 33.3, 50.0, 99.5, 100.0)
+
+
+def assert_numpy_percentiles(values, q=Q):
+    want = [float(v) for v in np.percentile(values, q)]
+    got = integer_percentiles(values, q)
+    assert np.array(got).tobytes() == np.array(want).tobytes(), (got, want)
+
+
+@pytest.mark.parametrize("dtype", SMALL_INTEGERS)
+def test_edge_cases_equal_numpy(dtype):
+    info = np.iinfo(dtype)
+    cases = [
+        np.full((7, 9), 3, dtype),  # constant
+        np.array([[info.min]], dtype),  # one pixel
+        np.array([[info.min, info.max]], dtype),  # two values, the widest span
+        np.array([[0, 1] * 50], dtype),  # two values, half each
+        np.array([[5] * 199 + [info.max]], dtype),  # one outlier
+        np.arange(info.min, info.max + 1, dtype=np.int64).astype(dtype).reshape(-1, 16)[:, ::3],
+    ]
+    for values in cases:
+        assert_numpy_percentiles(values)
+
+
+def test_sparse_uint16_equals_numpy():
+    # few distinct values spread over the whole 16-bit range (a sparse histogram)
+    rng = np.random.default_rng(1)
+    levels = np.array([0, 17, 900, 40000, 65535], np.uint16)
+    values = levels[rng.integers(0, 5, (301, 257))]
+    assert_numpy_percentiles(values)
+    assert default_percentiles(values) == [
+        float(v) for v in np.percentile(values, DEFAULT_PERCENTILES)
+    ]
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    hnp.arrays(
+        st.sampled_from(SMALL_INTEGERS), hnp.array_shapes(min_dims=1, max_dims=3, max_side=40)
+    ),
+    st.lists(st.floats(0, 100), min_size=1, max_size=4),
+)
+def test_any_small_integer_array_equals_numpy(values, q):
+    assert_numpy_percentiles(values, q)
+
+
+def test_default_tone_scale_of_integer_images_is_unchanged():
+    rng = np.random.default_rng(3)
+    for dtype in (np.uint16, np.int16, np.int8, np.uint32, np.int32):
+        info = np.iinfo(dtype)
+        values = rng.integers(max(info.min, -(2**20)), min(info.max, 2**20), (64, 65))
+        values = values.astype(dtype)
+        low, high = (float(v) for v in np.percentile(values, DEFAULT_PERCENTILES))
+        scale = resolve_tone_scale(values, None)
+        assert (scale.low, scale.high) == (low, high if high > low else low + 1.0)
+    constant = np.full((8, 8), 300, np.uint16)
+    assert resolve_tone_scale(constant, None) == resolve_tone_scale(constant.astype(float), None)
+
+
+def test_other_dtypes_are_refused_with_a_clear_error():
+    with pytest.raises(TypeError, match="8- or 16-bit"):
+        integer_percentiles(np.zeros(4, np.float32), Q)
+    with pytest.raises(ValueError, match="no values"):
+        integer_percentiles(np.zeros(0, np.uint16), Q)
