@@ -21,7 +21,6 @@ structure tensors are float32 (see :mod:`._metrics_kernels`).
 
 from __future__ import annotations
 
-import itertools
 import math
 import os
 import threading
@@ -66,8 +65,10 @@ METRICS = (
 # (1, -1), (1, 1); see _metrics_kernels.FAMILIES).
 _DIRECTIONS = ((0, 1), (1, 0), (1, 1), (1, -1))
 
-#: Rows per thread below which a plane is not split between threads.
+#: Rows per band below which a plane is not split into more bands.
 _MIN_BAND_ROWS = 64
+#: Bands of rows per thread: more bands than threads balance the threads' work.
+_BANDS_PER_WORKER = 4
 
 
 def _plane(image, name="image") -> np.ndarray:
@@ -101,18 +102,38 @@ def _default_workers() -> int:
 
 
 def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) -> list:
-    """``kernel(*arguments, y0, y1)`` on bands of rows covering ``[0, height)``, on threads."""
+    """``kernel(*arguments, y0, y1)`` on bands of rows covering ``[0, height)``, on threads.
+
+    The rows are cut into up to ``_BANDS_PER_WORKER`` bands per thread,
+    which the calling thread and ``workers - 1`` others take one at a time:
+    a band of rows that holds more work (walls, texture) does not hold up
+    the others. The kernels' results do not depend on the bands; the list
+    of their return values is in the order of the bands.
+    """
     workers = _default_workers() if workers is None else max(1, int(workers))
-    count = max(1, min(workers, height // _MIN_BAND_ROWS))
-    if count == 1:
+    count = max(1, min(_BANDS_PER_WORKER * workers, height // _MIN_BAND_ROWS))
+    if workers == 1 or count == 1:
         return [kernel(*arguments, 0, height)]
-    edges = np.linspace(0, height, count + 1).astype(int)
-    with ThreadPoolExecutor(count) as pool:
-        futures = [
-            pool.submit(kernel, *arguments, int(y0), int(y1))
-            for y0, y1 in itertools.pairwise(edges)
-        ]
-        return [future.result() for future in futures]
+    edges = np.linspace(0, height, count + 1).astype(int).tolist()
+    results: list = [None] * count
+    bands = iter(range(count))
+    lock = threading.Lock()
+
+    def work() -> None:
+        while True:
+            with lock:
+                index = next(bands, None)
+            if index is None:
+                return
+            results[index] = kernel(*arguments, edges[index], edges[index + 1])
+
+    helpers = min(workers, count) - 1
+    with ThreadPoolExecutor(helpers) as pool:
+        futures = [pool.submit(work) for _ in range(helpers)]
+        work()
+        for future in futures:
+            future.result()
+    return results
 
 
 class _LastPlane:
