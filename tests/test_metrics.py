@@ -306,3 +306,17 @@ def test_bands_and_threads_do_not_change_a_single_bit(monkeypatch, workers):
     assert metrics.Comparison(original, workers=workers).describe(rendered) == expected
     maps = metrics._Maps(rendered.astype(float), workers=workers)
     np.testing.assert_array_equal(maps.walls()[0], walls)
+
+
+@pytest.mark.parametrize("tone", [1.0, 1e30])
+def test_maps_made_without_walls_give_the_same_walls_when_asked(cases, tone):
+    """An original's maps skip h's float32 copy; asked for walls, they make it as the kernel
+    does (scaled by a power of two for huge tones)."""
+    plane = cases["labyrinth"] * tone
+    expected = metrics._Maps(plane.copy(), workers=1).walls()
+    lazy = metrics._Maps(plane.copy(), workers=1, walls=False)
+    assert lazy.fine()[1] == metrics._Maps(plane.copy()).fine()[1]  # h first, without the copy
+    walls = lazy.walls()
+    assert walls[0].any()
+    np.testing.assert_array_equal(walls[0], expected[0])
+    np.testing.assert_array_equal(walls[1], expected[1])

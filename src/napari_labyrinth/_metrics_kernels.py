@@ -214,7 +214,8 @@ def _extend(line, radius, ext):
 
 @njit(cache=True, nogil=True)
 def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
-    """``fine = plane - G * plane`` on rows ``[y0, y1)``, and its float32 copy ``fine32``.
+    """``fine = plane - G * plane`` on rows ``[y0, y1)``, and its float32 copy ``fine32``
+    (unless ``fine32`` is a single row: then it is not written).
 
     ``sums[y]`` gets, over row y: the sum and the largest finite value of
     ``fine**2``, the count of non-finite values of ``fine`` and the largest
@@ -227,6 +228,7 @@ def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
     smooth = np.empty(width)
     lower = np.empty(radius + 1, dtype=np.int64)
     upper = np.empty(radius + 1, dtype=np.int64)
+    copy32 = fine32.shape[0] == fine.shape[0]
     for y in range(y0, y1):
         for j in range(radius + 1):
             lower[j] = _reflect(y - j, plane.shape[0])
@@ -236,11 +238,15 @@ def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
         _gauss_line(ext, radius, weights, smooth)
         row = plane[y]
         out = fine[y]
-        out32 = fine32[y]
-        for x in range(width):
-            value = row[x] - smooth[x]
-            out[x] = value
-            out32[x] = value
+        if copy32:
+            out32 = fine32[y]
+            for x in range(width):
+                value = row[x] - smooth[x]
+                out[x] = value
+                out32[x] = value
+        else:
+            for x in range(width):
+                out[x] = row[x] - smooth[x]
         for x in range(width):
             smooth[x] = out[x] * out[x]
         sums[y, 0] = _sum(smooth)
