@@ -1,9 +1,10 @@
-"""Speed of ``metrics.describe``: the previous implementation against the current one.
+"""Speed of ``metrics.describe``: the previous implementation, a baseline tree and this one.
 
 Prints figures, asserts nothing. For each size, the input is scikit-image's
 ``camera`` resized, and the rendering a real one, ``labyrinth(image)`` with
 the default preset. Timed, interleaved round after round (best of the
-rounds; the machine may be shared, so the load average is printed):
+rounds; the machine may be shared, so the load average is printed with
+every round):
 
 - ``reference``: the previous implementation, kept as ``tests/_metrics_reference.py``;
 - ``first pass``: ``Comparison(original).describe(rendered)``, the original's
@@ -11,17 +12,24 @@ rounds; the machine may be shared, so the load average is printed):
 - ``next passes``: ``comparison.describe(rendered)`` on a ``Comparison`` that
   already holds the original's maps (every pass of a stack after the first);
 - ``describe()``: ``metrics.describe(original, rendered)`` called again with
-  the same original: the original's maps come from its content-keyed cache,
-  the call hashes the original.
+  the same original: the original's maps come from its content-keyed cache.
 
-Run: ``python benchmarks/bench_metrics.py [--sizes 512 2048 4096] [--rounds 3]``.
-The reference takes about a minute per call at 4096 x 4096 on two cores.
+Each tree's code runs in a fresh process per round (``this`` is the tree
+holding this script; ``--against DIR`` adds another checkout, e.g. the main
+branch, as ``before``), so both pay the same first-call costs. Besides the
+wall time, each call's CPU time (all threads) is recorded: CPU / wall near
+the number of cores means the call used them all.
+
+Run: ``python benchmarks/bench_metrics.py [--against /path/to/main] [--sizes 512 2048 4096]
+[--rounds 3]``. The reference takes about a minute per call at 4096 x 4096 on two cores.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -30,6 +38,8 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))  # the previous implementation, kept for the tests
+
+MODES = ("first pass", "next passes", "describe()")
 
 
 def camera(size: int) -> np.ndarray:
@@ -40,87 +50,137 @@ def camera(size: int) -> np.ndarray:
 
 
 def timed(function, *arguments):
-    """``(seconds, function(*arguments))``."""
-    start = time.perf_counter()
+    """``(wall seconds, CPU seconds of the process, function(*arguments))``."""
+    start, cpu = time.perf_counter(), time.process_time()
     result = function(*arguments)
-    return time.perf_counter() - start, result
+    return time.perf_counter() - start, time.process_time() - cpu, result
+
+
+def cases(sizes):
+    from napari_labyrinth import labyrinth
+
+    return {size: (camera(size), labyrinth(camera(size), seed=0)) for size in sizes}
+
+
+def child(sizes) -> None:
+    """One round of the current ``napari_labyrinth`` (from PYTHONPATH); JSON on stdout."""
+    from napari_labyrinth import labyrinth, metrics
+
+    planes = cases(sizes)
+    small = camera(64)
+    metrics.describe(small, labyrinth(small, seed=0))  # compile or load numba's cache
+    rows = []
+    for size, (original, rendered) in planes.items():
+        comparison = metrics.Comparison(original)
+        wall, cpu, result = timed(comparison.describe, rendered)
+        rows.append((size, "first pass", wall, cpu))
+        wall, cpu, _ = timed(comparison.describe, rendered)
+        rows.append((size, "next passes", wall, cpu))
+        metrics.describe(original, rendered)  # the original's maps now in describe's cache
+        wall, cpu, _ = timed(metrics.describe, original, rendered)
+        rows.append((size, "describe()", wall, cpu))
+        rows.append((size, "values", result, None))
+    print(json.dumps({"source": str(Path(metrics.__file__).parent), "rows": rows}))
+
+
+def run_child(tree: Path, sizes) -> dict:
+    environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
+    command = [sys.executable, __file__, "--child", "--sizes", *map(str, sizes)]
+    output = subprocess.run(command, env=environment, capture_output=True, text=True, check=True)
+    return json.loads(output.stdout.splitlines()[-1])
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[512, 2048, 4096])
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--against", type=Path, default=None, help="a baseline checkout")
     parser.add_argument(
         "--reference-rounds",
         type=int,
         default=None,
         help="rounds of the reference above 2048 x 2048 (default: 1; it is slow)",
     )
+    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.child:
+        child(args.sizes)
+        return
 
     import _metrics_reference as reference
 
-    from napari_labyrinth import labyrinth, metrics
-
-    print(f"napari_labyrinth from {Path(metrics.__file__).parent}")
-    cases = {}
-    for size in args.sizes:
-        original = camera(size)
-        cases[size] = (original, labyrinth(original, seed=0))
-    # compile (or load from numba's cache) and warm up
-    small = camera(64)
-    metrics.describe(small, labyrinth(small, seed=0))
-
-    times: dict[tuple[int, str], list[float]] = {}
-    results = {}
+    trees = {"this": ROOT}
+    if args.against is not None:
+        trees = {"before": args.against.resolve(), "this": ROOT}
+    planes = cases(args.sizes)
+    times: dict[tuple[str, int, str], list[tuple[float, float]]] = {}
+    values: dict[tuple[str, int], dict] = {}
     for round_number in range(args.rounds):
-        print(f"round {round_number + 1}/{args.rounds}, load average {os.getloadavg()}")
-        for size, (original, rendered) in cases.items():
-            comparison = metrics.Comparison(original)
-            seconds, results[(size, "new")] = timed(comparison.describe, rendered)
-            times.setdefault((size, "first pass"), []).append(seconds)
-            seconds, _ = timed(comparison.describe, rendered)
-            times.setdefault((size, "next passes"), []).append(seconds)
-            metrics.describe(original, rendered)  # the original's maps now in describe's cache
-            seconds, _ = timed(metrics.describe, original, rendered)
-            times.setdefault((size, "describe()"), []).append(seconds)
+        load = os.getloadavg()
+        print(f"round {round_number + 1}/{args.rounds}, load average {load}", flush=True)
+        order = list(trees) if round_number % 2 == 0 else list(reversed(trees))
+        for name in order:
+            report = run_child(trees[name], args.sizes)
+            if round_number == 0:
+                print(f"  {name}: napari_labyrinth from {report['source']}")
+            for size, mode, wall, cpu in report["rows"]:
+                if mode == "values":
+                    values[(name, size)] = wall
+                else:
+                    times.setdefault((name, size, mode), []).append((wall, cpu))
+        for size, (original, rendered) in planes.items():
             reference_rounds = args.rounds if size <= 2048 else (args.reference_rounds or 1)
             if round_number < reference_rounds:
-                seconds, results[(size, "reference")] = timed(
+                wall, cpu, values[("reference", size)] = timed(
                     reference.describe, original, rendered
                 )
-                times.setdefault((size, "reference"), []).append(seconds)
+                times.setdefault(("reference", size, "describe"), []).append((wall, cpu))
                 time.sleep(1.0)  # let BLAS's worker threads (np.corrcoef) go back to sleep
 
     print(f"\nload average at the end {os.getloadavg()}, {os.cpu_count()} cores")
-    print("best of the rounds, seconds per call (speed-up over the reference):\n")
-    columns = ("reference", "first pass", "next passes", "describe()")
-    print(f"{'size':>11} " + " ".join(f"{name:>20}" for name in columns))
-    for size in cases:
-        best = {name: min(times[(size, name)]) for name in columns if (size, name) in times}
-        cells = []
-        for name in columns:
-            if name not in best:
-                cells.append(f"{'-':>20}")
-            elif name == "reference" or "reference" not in best:
-                cells.append(f"{best[name]:>20.3f}")
-            else:
-                cells.append(f"{best[name]:>9.3f} ({best['reference'] / best[name]:>5.0f}x)   ")
-        print(f"{size:>5} x {size:<5}" + " ".join(cells))
+    print("best of the rounds, per call: wall seconds, CPU seconds (all threads; on a loaded")
+    print("machine the CPU time says more about the work than the wall time), CPU / wall")
+    print("(x: wall-time speed-up over the reference;")
+    print(" vs before: wall- and CPU-time speed-ups over the baseline)\n")
+    for size in planes:
+        print(f"{size} x {size}")
+        reference_best = min(times[("reference", size, "describe")])
+        wall, cpu = reference_best
+        print(f"  {'reference':<24}{wall:8.3f} s {cpu:7.3f} s  [{cpu / wall:.1f}]")
+        for mode in MODES:
+            for name in trees:
+                wall = min(w for w, _ in times[(name, size, mode)])
+                cpu = min(c for _, c in times[(name, size, mode)])
+                line = f"  {name + ' ' + mode:<24}{wall:8.3f} s {cpu:7.3f} s  [{cpu / wall:.1f}]"
+                line += f"  {reference_best[0] / wall:6.0f}x"
+                if name == "this" and "before" in trees:
+                    before_wall = min(w for w, _ in times[("before", size, mode)])
+                    before_cpu = min(c for _, c in times[("before", size, mode)])
+                    line += f"   {before_wall / wall:5.2f}x wall, "
+                    line += f"{before_cpu / cpu:5.2f}x CPU vs before"
+                print(line)
     print("\nthe original's own maps (first pass minus next passes, best of the rounds):")
-    for size in cases:
-        extra = min(times[(size, "first pass")]) - min(times[(size, "next passes")])
-        print(f"{size:>5} x {size:<5} {extra:.3f} s")
+    for size in planes:
+        cells = []
+        for name in trees:
+            extra = min(times[(name, size, "first pass")])[0]
+            extra -= min(times[(name, size, "next passes")])[0]
+            cells.append(f"{name} {extra:.3f} s")
+        print(f"  {size:>5} x {size:<5} " + ", ".join(cells))
     print("\nlargest relative difference from the reference over the metrics:")
-    for size in cases:
-        if (size, "reference") not in results:
-            continue
-        old, new = results[(size, "reference")], results[(size, "new")]
-        worst = max(
-            0.0 if (np.isnan(old[k]) and np.isnan(new[k])) else abs(new[k] - old[k]) / abs(old[k])
-            for k in old
-        )
-        print(f"{size:>5} x {size:<5} {worst:.1e}")
+    for size in planes:
+        old = values[("reference", size)]
+        cells = []
+        for name in trees:
+            new = values[(name, size)]
+            worst = max(
+                0.0
+                if (np.isnan(old[k]) and np.isnan(new[k]))
+                else abs(new[k] - old[k]) / abs(old[k])
+                for k in old
+            )
+            cells.append(f"{name} {worst:.1e}")
+        print(f"  {size:>5} x {size:<5} " + ", ".join(cells))
 
 
 if __name__ == "__main__":

@@ -300,3 +300,35 @@ def test_wall_map_is_shared_and_read_only(cases):
     assert np.shares_memory(metrics.wall_map(cases["labyrinth"].copy()), walls)
     fine = metrics.fine_scale(cases["labyrinth"])
     assert fine.flags.writeable and fine.dtype == np.float64
+
+
+@pytest.mark.parametrize("workers", [2, 3, 7])
+def test_bands_and_threads_do_not_change_a_single_bit(monkeypatch, workers):
+    """A plane cut into many bands of rows of uneven sizes (walls in some only) gives the
+    numbers and maps of one thread on the whole plane, bit for bit."""
+    from napari_labyrinth import labyrinth
+
+    original = (cholesteric_fingerprint((333, 140), seed=5) * 255).astype(np.uint8)
+    original[:120] = 128  # a flat band: no texture, no walls, little work there
+    rendered = labyrinth(original, seed=2)
+    expected = metrics.Comparison(original, workers=1).describe(rendered)
+    walls = metrics._Maps(rendered.astype(float), workers=1).walls()[0]
+    assert 0.02 < walls.mean() < 0.6  # the test needs walls, not everywhere
+    monkeypatch.setattr(metrics, "_MIN_BAND_ROWS", 7)  # 333 rows: up to 47 bands
+    assert metrics.Comparison(original, workers=workers).describe(rendered) == expected
+    maps = metrics._Maps(rendered.astype(float), workers=workers)
+    np.testing.assert_array_equal(maps.walls()[0], walls)
+
+
+@pytest.mark.parametrize("tone", [1.0, 1e30])
+def test_maps_made_without_walls_give_the_same_walls_when_asked(cases, tone):
+    """An original's maps skip h's float32 copy; asked for walls, they make it as the kernel
+    does (scaled by a power of two for huge tones)."""
+    plane = cases["labyrinth"] * tone
+    expected = metrics._Maps(plane.copy(), workers=1).walls()
+    lazy = metrics._Maps(plane.copy(), workers=1, walls=False)
+    assert lazy.fine()[1] == metrics._Maps(plane.copy()).fine()[1]  # h first, without the copy
+    walls = lazy.walls()
+    assert walls[0].any()
+    np.testing.assert_array_equal(walls[0], expected[0])
+    np.testing.assert_array_equal(walls[1], expected[1])

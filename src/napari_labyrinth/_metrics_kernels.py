@@ -214,7 +214,8 @@ def _extend(line, radius, ext):
 
 @njit(cache=True, nogil=True)
 def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
-    """``fine = plane - G * plane`` on rows ``[y0, y1)``, and its float32 copy ``fine32``.
+    """``fine = plane - G * plane`` on rows ``[y0, y1)``, and its float32 copy ``fine32``
+    (unless ``fine32`` is a single row: then it is not written).
 
     ``sums[y]`` gets, over row y: the sum and the largest finite value of
     ``fine**2``, the count of non-finite values of ``fine`` and the largest
@@ -227,6 +228,7 @@ def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
     smooth = np.empty(width)
     lower = np.empty(radius + 1, dtype=np.int64)
     upper = np.empty(radius + 1, dtype=np.int64)
+    copy32 = fine32.shape[0] == fine.shape[0]
     for y in range(y0, y1):
         for j in range(radius + 1):
             lower[j] = _reflect(y - j, plane.shape[0])
@@ -236,11 +238,15 @@ def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
         _gauss_line(ext, radius, weights, smooth)
         row = plane[y]
         out = fine[y]
-        out32 = fine32[y]
-        for x in range(width):
-            value = row[x] - smooth[x]
-            out[x] = value
-            out32[x] = value
+        if copy32:
+            out32 = fine32[y]
+            for x in range(width):
+                value = row[x] - smooth[x]
+                out[x] = value
+                out32[x] = value
+        else:
+            for x in range(width):
+                out[x] = row[x] - smooth[x]
         for x in range(width):
             smooth[x] = out[x] * out[x]
         sums[y, 0] = _sum(smooth)
@@ -480,6 +486,7 @@ def smooth_band(
     ext32 = np.empty(span, dtype=np.float32)
     lags = np.empty((13, LAG_BLOCK, X_TILE), dtype=np.float32)
     textured = np.empty(LAG_BLOCK, dtype=np.bool_)
+    needed = np.empty(LAG_BLOCK, dtype=np.bool_)
     inverse = np.empty((LAG_BLOCK, X_TILE))
     margins = np.empty((LAG_BLOCK, X_TILE))
     half32 = np.float32(0.5)
@@ -496,26 +503,50 @@ def smooth_band(
             if not any_textured:
                 flags[b0:b1, x0:x1] = False
                 continue
-            for m in range(1, 13):
-                _smooth_block(
-                    fine32,
-                    plane,
-                    mode,
-                    LAG_DY[m],
-                    LAG_DX[m],
-                    half32,
-                    weights32,
-                    b0,
-                    b1,
-                    x0,
-                    x1,
-                    ring32,
-                    column32,
-                    ext32,
-                    lags[m],
-                    textured,
-                )
             _margins(energy, halo, e0, y0, y1, b0, b1, x0, x1, largest_square, inverse, margins)
+            # the lag maps in the order the decision reads them, each on the rows where some
+            # pixel's decision reads it (see _needed_rows): the lag-1 maps, then lag 2, lag 4
+            for step in range(3):
+                for family in range(4):
+                    m = 1 + 3 * family + step
+                    if step == 0:
+                        needed[:] = textured
+                    elif not _needed_rows(
+                        lags,
+                        energy,
+                        inverse,
+                        margins,
+                        b0,
+                        b1,
+                        x0,
+                        x1,
+                        family,
+                        step,
+                        energy_floor2,
+                        lag_scale,
+                        along_threshold,
+                        alternation_threshold,
+                        needed,
+                    ):
+                        continue
+                    _smooth_block(
+                        fine32,
+                        plane,
+                        mode,
+                        LAG_DY[m],
+                        LAG_DX[m],
+                        half32,
+                        weights32,
+                        b0,
+                        b1,
+                        x0,
+                        x1,
+                        ring32,
+                        column32,
+                        ext32,
+                        lags[m],
+                        needed,
+                    )
             for y in range(b0, b1):
                 row_energy = energy[y, x0:x1]
                 row_inverse = inverse[y - b0]
@@ -544,6 +575,64 @@ def smooth_band(
     return count, exact
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _needed_rows(
+    lags,
+    energy,
+    inverse,
+    margins,
+    b0,
+    b1,
+    x0,
+    x1,
+    family,
+    step,
+    energy_floor2,
+    lag_scale,
+    along,
+    alternation,
+    needed,
+):
+    """Rows of a block where :func:`_decide` reads the lag map of ``family`` at lag ``2**step``.
+
+    That map (lag ``2 u_g`` or ``4 u_g``, g = ``family``) is read only for
+    the direction f whose normal is g, at pixels above the energy floor
+    where ``C(u_f) > along`` is not ruled out; lag ``4 u_g`` only where, in
+    addition, the first alternation (lags ``u_g``, ``2 u_g``) is not settled
+    true and ``C(2 u_g) < -alternation`` is not ruled out. The maps these
+    tests read are those of smaller lags, already smoothed on these rows.
+    Sets ``needed[y - b0]`` and returns whether any row is needed.
+    """
+    direction = NORMAL_FAMILY[family]
+    along_map = 1 + 3 * direction
+    n = 1 + 3 * family
+    any_row = False
+    for y in range(b0, b1):
+        row = y - b0
+        row_energy = energy[y, x0:x1]
+        found = False
+        for i in range(x1 - x0):
+            if not row_energy[i] > energy_floor2:
+                continue
+            scale = inverse[row, i] * lag_scale
+            margin = margins[row, i]
+            if _compare(lags[along_map, row, i] * scale, along, margin) == 0:
+                continue
+            if step == 1:
+                found = True
+                break
+            first = _compare(lags[n, row, i] * scale, -alternation, margin)
+            c2 = lags[n + 1, row, i] * scale
+            if first != 0:
+                first = _and(first, _compare(c2, alternation, margin))
+            if first != 1 and _compare(c2, -alternation, margin) != 0:
+                found = True
+                break
+        needed[row] = found
+        any_row = any_row or found
+    return any_row
+
+
 @njit(cache=True, nogil=True)
 def _compare(c, threshold, margin):
     """Whether ``C > threshold``: 0 (no), 1 (yes), or 2 when ``C``'s error bound leaves it open.
@@ -565,6 +654,12 @@ def _energy_row(energy, halo, e0, y0, y1, y):
     if y >= y1:
         return halo[halo.shape[0] // 2 + y - y1]
     return energy[y]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _larger(a, b):
+    """``max(a, b)`` (``a`` if ``b`` is NaN), in a form the compiler turns into SIMD."""
+    return b if b > a else a
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -599,7 +694,7 @@ def _margins(energy, halo, e0, y0, y1, b0, b1, x0, x1, largest_square, inverse, 
             for j in range(1 - reach, reach + 1):
                 other = _energy_row(energy, halo, e0, y0, y1, y + j)[lo:hi]
                 for k in range(hi - lo):
-                    column_max[k] = max(column_max[k], other[k])
+                    column_max[k] = _larger(column_max[k], other[k])
             inner = largest[i0:i1]
             start = x0 + i0 - reach - lo
             window = column_max[start : start + (i1 - i0)]
@@ -608,7 +703,7 @@ def _margins(energy, halo, e0, y0, y1, b0, b1, x0, x1, largest_square, inverse, 
             for k in range(1, 2 * reach + 1):
                 window = column_max[start + k : start + k + (i1 - i0)]
                 for i in range(i1 - i0):
-                    inner[i] = max(inner[i], window[i])
+                    inner[i] = _larger(inner[i], window[i])
         for i in range(tile):
             row_margin[i] = FLOAT32_ERROR * (0.5 + 0.5 * largest[i] * row_inverse[i]) + 1e-12
 

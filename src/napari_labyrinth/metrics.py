@@ -21,7 +21,6 @@ structure tensors are float32 (see :mod:`._metrics_kernels`).
 
 from __future__ import annotations
 
-import itertools
 import math
 import os
 import threading
@@ -66,8 +65,10 @@ METRICS = (
 # (1, -1), (1, 1); see _metrics_kernels.FAMILIES).
 _DIRECTIONS = ((0, 1), (1, 0), (1, 1), (1, -1))
 
-#: Rows per thread below which a plane is not split between threads.
+#: Rows per band below which a plane is not split into more bands.
 _MIN_BAND_ROWS = 64
+#: Bands of rows per thread: more bands than threads balance the threads' work.
+_BANDS_PER_WORKER = 4
 
 
 def _plane(image, name="image") -> np.ndarray:
@@ -101,18 +102,38 @@ def _default_workers() -> int:
 
 
 def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) -> list:
-    """``kernel(*arguments, y0, y1)`` on bands of rows covering ``[0, height)``, on threads."""
+    """``kernel(*arguments, y0, y1)`` on bands of rows covering ``[0, height)``, on threads.
+
+    The rows are cut into up to ``_BANDS_PER_WORKER`` bands per thread,
+    which the calling thread and ``workers - 1`` others take one at a time:
+    a band of rows that holds more work (walls, texture) does not hold up
+    the others. The kernels' results do not depend on the bands; the list
+    of their return values is in the order of the bands.
+    """
     workers = _default_workers() if workers is None else max(1, int(workers))
-    count = max(1, min(workers, height // _MIN_BAND_ROWS))
-    if count == 1:
+    count = max(1, min(_BANDS_PER_WORKER * workers, height // _MIN_BAND_ROWS))
+    if workers == 1 or count == 1:
         return [kernel(*arguments, 0, height)]
-    edges = np.linspace(0, height, count + 1).astype(int)
-    with ThreadPoolExecutor(count) as pool:
-        futures = [
-            pool.submit(kernel, *arguments, int(y0), int(y1))
-            for y0, y1 in itertools.pairwise(edges)
-        ]
-        return [future.result() for future in futures]
+    edges = np.linspace(0, height, count + 1).astype(int).tolist()
+    results: list = [None] * count
+    bands = iter(range(count))
+    lock = threading.Lock()
+
+    def work() -> None:
+        while True:
+            with lock:
+                index = next(bands, None)
+            if index is None:
+                return
+            results[index] = kernel(*arguments, edges[index], edges[index + 1])
+
+    helpers = min(workers, count) - 1
+    with ThreadPoolExecutor(helpers) as pool:
+        futures = [pool.submit(work) for _ in range(helpers)]
+        work()
+        for future in futures:
+            future.result()
+    return results
 
 
 class _LastPlane:
@@ -187,9 +208,17 @@ class _Maps:
     the maps' arrays come from it and :meth:`release` gives them back.
     """
 
-    def __init__(self, plane: np.ndarray, workers: int | None = None, pool: _Pool | None = None):
+    def __init__(
+        self,
+        plane: np.ndarray,
+        workers: int | None = None,
+        pool: _Pool | None = None,
+        *,
+        walls: bool = True,
+    ):
         self.plane = plane
         self.workers = workers
+        self._walls_expected = walls  # False: h's float32 copy is made only if asked for
         self._pool = pool
         self._taken: list[np.ndarray] = []
         self._lock = threading.RLock()
@@ -229,12 +258,15 @@ class _Maps:
     def _fine(self) -> _Fine:
         def compute():
             fine = self._empty()
-            fine32 = self._empty(np.float32)
+            if self._walls_expected:
+                fine32 = self._empty(np.float32)
+            else:
+                fine32 = np.empty((1, 1), dtype=np.float32)  # not written (see _lag_plane)
             sums = self._row_sums(4)
             self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine, fine32, sums)
             largest_square = float(sums[:, 1].max())
             scale = _float32_scale(math.sqrt(largest_square))
-            if scale != 1.0:  # h**2 would overflow (or lose its digits in) float32
+            if scale != 1.0 and self._walls_expected:  # h**2 would overflow in float32
                 fine32 = (fine * scale).astype(np.float32)
             return _Fine(
                 fine,
@@ -257,15 +289,28 @@ class _Maps:
         """Per-row partial sums that kernels fill: the totals do not depend on the bands."""
         return np.empty((self.plane.shape[0], count))
 
+    def _lag_plane(self) -> np.ndarray:
+        """``h`` times a power of two in float32, for the lag correlations (see :class:`_Fine`)."""
+        fine = self._fine()
+        if fine.fine32.shape == fine.fine.shape:
+            return fine.fine32
+
+        def compute():
+            scale = _float32_scale(math.sqrt(fine.largest_square))
+            return (fine.fine * scale).astype(np.float32)  # as fine_scale_band writes it
+
+        return self._get("fine32", compute)
+
     def _smooth(self, mode, energy, flags) -> tuple[list, float]:
         """The kernel's results per band and the sum of the energy."""
         kernels = _kernels()
         fine = self._fine()
+        lag_plane = self._lag_plane() if mode == kernels.MODE_WALLS else fine.fine32
         sums = self._row_sums(1)
         results = self._bands(
             kernels.smooth_band,
             fine.fine,
-            fine.fine32,
+            lag_plane,
             self.plane,
             mode,
             _weights(WINDOW_SIGMA),
@@ -339,6 +384,9 @@ class _Maps:
     def contours(self, sigma: float, walls: np.ndarray) -> tuple[np.ndarray, ...]:
         """The same for the plane itself at ``sigma``: its contours, on ``walls`` (at least).
 
+        The strength is not kept (no metric reads it): the first map is the
+        second, coherence times strength.
+
         The maps are computed row by row of column tiles, the rows and tiles
         that hold a pixel of ``walls`` and were not computed for earlier
         walls: a stack's passes compute each part of the original's contours
@@ -349,7 +397,9 @@ class _Maps:
         with self._lock:
             key = ("contours", float(sigma))
             if key not in self._values:
-                maps = tuple(self._empty(np.float32) for _ in range(4))
+                coherent = self._empty(np.float32)
+                # the kernel writes each pixel's strength, then coherence * strength over it
+                maps = (coherent, coherent, self._empty(np.float32), self._empty(np.float32))
                 tiles = kernels.tensor_tiles(self.plane.shape[1], weights.shape[0] - 1)
                 self._values[key] = (maps, np.zeros((self.plane.shape[0], tiles), dtype=bool))
             maps, done = self._values[key]
@@ -381,7 +431,7 @@ class _Maps:
 
 class _Fine(NamedTuple):
     fine: np.ndarray  # h = g - G_1 * g
-    fine32: np.ndarray  # h * sqrt(1 / lag_scale) in float32, for the lag correlations
+    fine32: np.ndarray  # h * sqrt(1 / lag_scale) in float32 (1 x 1 if not made: _lag_plane)
     total: float  # sum(h**2)
     largest_square: float  # max(h**2) over the finite values
     lag_scale: float  # a power of two
@@ -740,7 +790,8 @@ class Comparison:
     """
 
     def __init__(self, original, *, workers: int | None = None):
-        self._maps = _Maps(_float_plane(_plane(original, "original"), copy=True), workers)
+        plane = _float_plane(_plane(original, "original"), copy=True)
+        self._maps = _Maps(plane, workers, walls=False)  # the renderings' walls only
         self.workers = workers
         self._pool = _Pool()
 
