@@ -168,3 +168,15 @@ def test_a_non_contiguous_or_float_plane_takes_the_numpy_path():
     scale = ToneScale(0.0, 255.0)
     assert integer_plane_tones(scale, np.zeros((4, 6), np.uint8)[:, ::2]) is None
     assert integer_plane_tones(scale, np.zeros((4, 6), np.float32)) is None
+
+
+def test_uint8_on_the_paper_scale_rounds_every_tone_half_to_even():
+    scale = ToneScale(0.0, 255.0)
+    values = np.array([[0, 1, 2, 254, 7, 255, 9]], np.uint8)
+    work = np.array([[0.5, 1.5, 2.5, 254.5, -0.0, 255.0, 9.0]], np.float32)
+    got = values.copy()
+    write_changed_values(scale, got, values, work)
+    np.testing.assert_array_equal(got, [[0, 2, 2, 254, 0, 255, 9]])
+    expected = values.copy()
+    _engine.write_changes(expected, scale.to_tones(values), work, scale)
+    np.testing.assert_array_equal(got, expected)

@@ -78,3 +78,13 @@ def test_other_dtypes_are_refused_with_a_clear_error():
         integer_percentiles(np.zeros(4, np.float32), Q)
     with pytest.raises(ValueError, match="no values"):
         integer_percentiles(np.zeros(0, np.uint16), Q)
+
+
+@pytest.mark.parametrize("size", range(10))
+def test_counting_in_four_tables_counts_every_value_once(size):
+    from napari_labyrinth.core._tone_loops import count_values
+
+    values = np.array([3, 3, 3, 0, 255, 3, 7, 7, 1], np.uint8)[:size]
+    counts = np.zeros(256, np.int64)
+    count_values(values, 0, counts)
+    np.testing.assert_array_equal(counts, np.bincount(values, minlength=256))

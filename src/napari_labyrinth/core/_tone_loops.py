@@ -6,7 +6,9 @@
 - ``write_back``: the values of the tones that changed, as
   ``ToneScale.from_tones``, written over the source values in place, with no
   mask and no temporary array; a tone has changed where its bits differ from
-  those of the source value's tone, computed again (nothing else is kept).
+  those of the source value's tone, computed again (nothing else is kept);
+- ``rounded_tones``: the same for uint8 on the paper's own scale (0, 255),
+  where a tone *is* its value: every tone is rounded back, changed or not.
 
 Each loop does the arithmetic of its numpy counterpart in the same precision
 and order (float32 for 8- and 16-bit values, float64 for 32-bit ones), so the
@@ -21,9 +23,36 @@ from numba import njit
 
 @njit(cache=True, nogil=True)
 def count_values(flat, offset, counts):
-    """Add to ``counts[v - offset]`` one for every value v of the 1-D array ``flat``."""
-    for value in flat:
-        counts[np.int64(value) - offset] += 1
+    """Add to ``counts[v - offset]`` one for every value v of the 1-D array ``flat``.
+
+    Four tables take every fourth value: a run of equal values (common in an
+    image) then increments four counters in turn instead of one counter after
+    itself, which waits for its own previous increment.
+    """
+    for start in range(0, flat.shape[0], _COUNT_BLOCK):
+        _count_block(flat[start : start + _COUNT_BLOCK], offset, counts)
+
+
+#: Values counted at most at a time into uint32 tables (none overflows).
+_COUNT_BLOCK = 1 << 31
+
+
+@njit(nogil=True)
+def _count_block(flat, offset, counts):
+    size = counts.shape[0]
+    first, second = np.zeros(size, np.uint32), np.zeros(size, np.uint32)
+    third, fourth = np.zeros(size, np.uint32), np.zeros(size, np.uint32)
+    quads = flat.shape[0] // 4 * 4
+    for i in range(0, quads, 4):
+        first[np.intp(flat[i]) - offset] += 1
+        second[np.intp(flat[i + 1]) - offset] += 1
+        third[np.intp(flat[i + 2]) - offset] += 1
+        fourth[np.intp(flat[i + 3]) - offset] += 1
+    for i in range(quads, flat.shape[0]):
+        first[np.intp(flat[i]) - offset] += 1
+    for k in range(size):
+        counts[k] += np.int64(first[k]) + np.int64(second[k]) + np.int64(third[k])
+        counts[k] += np.int64(fourth[k])
 
 
 @njit(inline="always")
@@ -62,3 +91,19 @@ def write_back(target, source, tones, low, gain, low32, gain32, wide, lowest, hi
                 continue
             value = np.rint(np.float64(tone) / gain + low)
             target[y, x] = min(max(value, lowest), highest)
+
+
+@njit(cache=True, nogil=True)
+def rounded_tones(target, tones):
+    """``target[...] = rint(tones)`` clipped to 0-255: uint8 values on the scale (0, 255).
+
+    ``target`` and ``tones`` are C-contiguous planes of one shape.
+
+    There a tone that did not change is its value, so every pixel may be
+    written; no source is read and no comparison made.
+    """
+    flat_tones, flat_target = tones.ravel(), target.ravel()
+    for i in range(flat_tones.shape[0]):
+        # rint of a float32 is that of its float64 (from_tones' precision)
+        tone = min(max(flat_tones[i], np.float32(0.0)), np.float32(255.0))
+        flat_target[i] = np.uint8(np.rint(tone))

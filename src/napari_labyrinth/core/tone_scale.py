@@ -60,7 +60,7 @@ class ToneScale:
 
     def to_tones(self, values: np.ndarray) -> np.ndarray:
         """float32 tones of ``values``; non-finite values become NaN."""
-        if values.dtype == np.uint8 and (self.low, self.high) == (0.0, 255.0):
+        if _is_paper_scale(self, values.dtype):
             return values.astype(np.float32)  # the paper's own scale
         if values.dtype.itemsize <= 2 or values.dtype == np.float32:
             # values are exact in float32: map there, with half the memory traffic
@@ -201,12 +201,20 @@ def write_changed_values(
     ``scale.from_tones(tone, target.dtype)``. One pass, no temporary array.
     ``values`` and ``target`` are C-contiguous integer planes of one dtype.
     """
-    from ._tone_loops import write_back  # numba is imported on first use only
+    from ._tone_loops import rounded_tones, write_back  # numba is imported on first use only
 
+    if _is_paper_scale(scale, values.dtype) and target.flags.c_contiguous:
+        rounded_tones(target, tones)
+        return
     info = np.iinfo(values.dtype)
     write_back(
         target, values, tones, *_loop_scale(scale, values.dtype), float(info.min), float(info.max)
     )
+
+
+def _is_paper_scale(scale: ToneScale, dtype: np.dtype) -> bool:
+    """uint8 values on the scale (0, 255): each value is its own tone."""
+    return np.dtype(dtype) == np.uint8 and (scale.low, scale.high) == (0.0, 255.0)
 
 
 def _fused(values: np.ndarray) -> bool:
