@@ -14,6 +14,7 @@ from napari_labyrinth import (
     labyrinth_stack,
     labyrinth_steps,
     labyrinth_sweep,
+    resolve_parameters,
 )
 
 
@@ -180,3 +181,55 @@ def test_uint8_on_the_paper_scale_rounds_every_tone_half_to_even():
     expected = values.copy()
     _engine.write_changes(expected, scale.to_tones(values), work, scale)
     np.testing.assert_array_equal(got, expected)
+
+
+# The pixels a pass writes are noted, so that the write-back visits only them.
+
+
+def _noisy_plane(shape, seed):
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[: shape[0], : shape[1]]
+    plane = 90 + 60 * np.sin(x / 4.0 + y / 7.0) + rng.normal(0, 40, shape)
+    return np.clip(plane, 0, 255).astype(np.float32)
+
+
+@pytest.mark.parametrize("preset", ["paper", "labyrinth"])
+@pytest.mark.parametrize(
+    "scan, workers, tile", [("raster", 1, None), ("raster", 3, (4, 9)), ("checkerboard", 2, None)]
+)
+def test_every_pixel_a_pass_changes_is_noted(preset, scan, workers, tile):
+    from napari_labyrinth.core.codes import OUT_OF_TRIES, PUSHED, REDRAWN
+
+    parameters = resolve_parameters(preset, scan=scan, on_exhausted="last_draw")
+    plane = _noisy_plane((37, 53), seed=len(preset))
+    before = plane.copy()
+    changes = _engine.new_changes(plane.size)
+    counts = _engine.run_pass(plane, parameters, workers=workers, tile=tile, changes=changes)
+    listed = _engine.listed_changes(changes)
+    changed = np.flatnonzero(plane.view(np.uint32) != before.view(np.uint32))
+    assert changed.size > 0
+    assert set(changed) <= set(listed.tolist())
+    assert len(listed) == counts[PUSHED] + counts[REDRAWN] + counts[OUT_OF_TRIES]
+
+
+def test_more_changes_than_noted_fall_back_to_visiting_every_pixel(monkeypatch):
+    image = (_noisy_plane((40, 50), seed=3) * 200).astype(np.uint16)
+    want = labyrinth_stack(image, passes=2)
+    for room in (0, 1, 5):  # no room, or past it during the first or the second pass
+        room_for = lambda pixels, room=room: np.zeros(room + 1, np.int64)  # noqa: E731
+        monkeypatch.setattr(_engine, "new_changes", room_for)
+        np.testing.assert_array_equal(labyrinth_stack(image, passes=2), want)
+
+
+def test_the_threads_notes_are_gathered_unless_they_do_not_fit():
+    parts = [np.array([1, 7, 0]), np.array([2, 8, 9])]  # one write noted, then two
+    changes = np.zeros(4, np.int64)
+    _engine._gather_changes(changes, parts)
+    np.testing.assert_array_equal(_engine.listed_changes(changes), [7, 8, 9])
+    changes = np.zeros(3, np.int64)
+    _engine._gather_changes(changes, parts)
+    assert _engine.listed_changes(changes) is None
+    overflowed = np.array([5, 1, 2], np.int64)  # five writes, room for two
+    changes = np.zeros(10, np.int64)
+    _engine._gather_changes(changes, [overflowed])
+    assert _engine.listed_changes(changes) is None

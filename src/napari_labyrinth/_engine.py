@@ -26,7 +26,12 @@ import numpy as np
 from .core.codes import DIAGNOSTIC_FIELDS, OPTION_CODES, SKIPPED
 from .core.parameters import LabyrinthParameters
 from .core.planes import PlaneLayout
-from .core.tone_scale import ToneScale, integer_plane_tones, write_changed_values
+from .core.tone_scale import (
+    ToneScale,
+    integer_plane_tones,
+    write_changed_values,
+    write_listed_values,
+)
 
 #: dtype of the per-pass diagnostics: one count per field of ``DIAGNOSTIC_FIELDS``.
 DIAGNOSTICS_DTYPE = np.dtype([(name, np.int64) for name in DIAGNOSTIC_FIELDS])
@@ -97,13 +102,17 @@ def render(
 
     def passes_of(index):
         """Every pass over one plane, yielding after each; stops early once ``stop`` is set."""
+        if not passes:
+            return
         values = source[index]
         # integer planes: tones in one pass, and no copy of them kept (see _write_back)
         work = integer_plane_tones(scale, values)
-        initial = None
+        initial = changes = None
         if work is None:
             initial = np.ascontiguousarray(scale.to_tones(values))
             work = initial.copy()
+        else:  # the pixels the passes write, for a write-back that visits only them
+            changes = new_changes(work.size)
         has_nonfinite = image.dtype.kind == "f" and not np.isfinite(work).all()
         for pass_index in range(passes):
             if stop.is_set():
@@ -117,12 +126,13 @@ def render(
                 counts=counts[(pass_index,) + index],
                 has_nonfinite=has_nonfinite,
                 workers=max(1, workers // plane_workers),  # spare threads: tiles
+                changes=changes,
             )
             if record_passes:
-                _write_back(targets[pass_index][index], values, initial, work, scale)
+                _write_back(targets[pass_index][index], values, initial, work, scale, changes)
             yield pass_index + 1
         if not record_passes and passes:
-            _write_back(targets[0][index], values, initial, work, scale)
+            _write_back(targets[0][index], values, initial, work, scale, changes)
 
     flat = {index: int(np.ravel_multi_index(index, leading)) if index else 0 for index in planes}
     if plane_workers == 1:
@@ -204,13 +214,15 @@ def run_pass(
     has_nonfinite: bool | None = None,
     workers: int = 1,
     tile: tuple[int, int] | None = None,
+    changes: np.ndarray | None = None,
 ) -> np.ndarray:
     """Run one pass of the numba kernel on a float32 plane of 0-255 tones, in place.
 
     The low-level entry point (no tone mapping, no copies, no validation of
     ``tones``): ``tones`` must be a C-contiguous 2-D float32 array.
     ``counts``, if given, is an int64 array of ``len(DIAGNOSTIC_FIELDS)`` that
-    the pass increments. Returns ``counts``.
+    the pass increments. ``changes``, if given (see :func:`new_changes`),
+    collects the flat indices of the pixels the pass writes. Returns ``counts``.
 
     With ``workers > 1`` a large plane runs on several threads: in the
     paper's raster order as parallelogram tiles of ``tile = (rows,
@@ -225,12 +237,16 @@ def run_pass(
 
     if counts is None:
         counts = np.zeros(len(DIAGNOSTIC_FIELDS), dtype=np.int64)
+    if changes is None:  # room for none: every call compiles to the same kernel
+        changes = new_changes(0)
     if has_nonfinite is None:
         has_nonfinite = not np.isfinite(tones).all()
     arguments = (tones, *_kernel_arguments(parameters), np.uint64(seed), plane_index, pass_index)
     options = (*_kernel_options(parameters), has_nonfinite)
     if parameters.scan == "checkerboard":
-        _checkerboard_bands(labyrinth_pass, arguments, options, counts, tones.shape[0], workers)
+        _checkerboard_bands(
+            labyrinth_pass, arguments, options, counts, tones.shape[0], workers, changes
+        )
         return counts
     if workers > 1:
         refusal = exact_order_refusal(parameters)
@@ -238,11 +254,52 @@ def run_pass(
         if refusal is not None:
             _LOG.info("one thread for this plane: %s", refusal)
         elif tones.shape[0] > rows and (tile is not None or tones.size >= MIN_PARALLEL_PIXELS):
-            _exact_order(labyrinth_pass, arguments, options, counts, rows, diagonals, workers)
+            _exact_order(
+                labyrinth_pass, arguments, options, counts, rows, diagonals, workers, changes
+            )
             return counts
     # every call gives every argument: one compiled kernel serves all of them
-    labyrinth_pass(*arguments, *options, counts, -1, 0, -1, 0, -1)
+    labyrinth_pass(*arguments, *options, counts, -1, 0, -1, 0, -1, changes)
     return counts
+
+
+def new_changes(pixels: int) -> np.ndarray:
+    """An empty list of written pixels for :func:`run_pass` on a plane of ``pixels`` pixels.
+
+    ``changes[0]`` counts the writes, ``changes[1:]`` holds the first ones'
+    flat indices: room for a few percent of the plane (a pass writes far
+    fewer pixels than it keeps); past it the write-back visits every pixel.
+    """
+    capacity = 0 if pixels == 0 else max(4096, pixels // 16)
+    changes = np.empty(capacity + 1, dtype=np.int64)
+    changes[0] = 0
+    return changes
+
+
+def listed_changes(changes: np.ndarray) -> np.ndarray | None:
+    """The flat indices noted in ``changes``; None if they did not all fit."""
+    written = int(changes[0])
+    return changes[1 : written + 1] if written < changes.shape[0] else None
+
+
+def _empty_copies(changes: np.ndarray, count: int) -> list[np.ndarray]:
+    """``count`` empty lists of written pixels with the room of ``changes``."""
+    copies = [np.empty_like(changes) for _ in range(count)]
+    for copy in copies:
+        copy[0] = 0
+    return copies
+
+
+def _gather_changes(changes: np.ndarray, parts: list[np.ndarray]) -> None:
+    """Append to ``changes`` those that threads noted in lists of their own (``parts``)."""
+    for part in parts:
+        listed = listed_changes(part)
+        written = int(changes[0])
+        if listed is None or written + len(listed) >= changes.shape[0]:
+            changes[0] = changes.shape[0]  # more than fit: visit every pixel
+            continue
+        changes[written + 1 : written + 1 + len(listed)] = listed
+        changes[0] = written + len(listed)
 
 
 #: Planes with fewer pixels run on one thread: the tiles would cost more than they gain.
@@ -302,7 +359,9 @@ def exact_order_tiles(shape: tuple[int, int], rows: int, diagonals: int) -> list
     return bands
 
 
-def _exact_order(labyrinth_pass, arguments, options, counts, rows, diagonals, workers) -> None:
+def _exact_order(
+    labyrinth_pass, arguments, options, counts, rows, diagonals, workers, changes=None
+) -> None:
     """Run the tiles of ``exact_order_tiles`` on threads, each as soon as it may run.
 
     The tiles that may run wait in a queue, the upper band first; a free
@@ -324,6 +383,9 @@ def _exact_order(labyrinth_pass, arguments, options, counts, rows, diagonals, wo
     remaining = [sum(map(len, tiles))]
     changed = threading.Condition()
     band_counts = padded_counts(workers)
+    if changes is None:
+        changes = new_changes(0)
+    worker_changes = _empty_copies(changes, workers)  # each thread notes its own
     failed: list[BaseException] = []
 
     def queue_if_ready(band):
@@ -348,6 +410,7 @@ def _exact_order(labyrinth_pass, arguments, options, counts, rows, diagonals, wo
                 labyrinth_pass(
                     *arguments, *options, band_counts[worker], -1, band * rows,
                     min(height, (band + 1) * rows), j * diagonals, (j + 1) * diagonals,
+                    worker_changes[worker],
                 )  # fmt: skip
                 with changed:
                     finished[band] = j + 1
@@ -375,6 +438,7 @@ def _exact_order(labyrinth_pass, arguments, options, counts, rows, diagonals, wo
     if failed:
         raise failed[0]
     counts += band_counts[:, : len(DIAGNOSTIC_FIELDS)].sum(axis=0)
+    _gather_changes(changes, worker_changes)
 
 
 def padded_counts(rows: int) -> np.ndarray:
@@ -388,24 +452,30 @@ def padded_counts(rows: int) -> np.ndarray:
     return raw[offset : offset + rows * stride].reshape(rows, stride)
 
 
-def _checkerboard_bands(labyrinth_pass, arguments, options, counts, height, workers) -> None:
+def _checkerboard_bands(
+    labyrinth_pass, arguments, options, counts, height, workers, changes
+) -> None:
     """The four colours in turn, the rows of each split among ``workers`` threads."""
     bands = np.linspace(0, height, min(workers, max(1, height // 2)) + 1).astype(int)
     band_counts = padded_counts(len(bands) - 1)
+    band_changes = _empty_copies(changes, len(bands) - 1)
     for colour in range(4):  # the pixels of one colour are independent of each other
         if len(bands) == 2:
-            labyrinth_pass(*arguments, *options, band_counts[0], colour, 0, height, 0, -1)
+            labyrinth_pass(
+                *arguments, *options, band_counts[0], colour, 0, height, 0, -1, band_changes[0]
+            )
             continue
         with ThreadPoolExecutor(len(bands) - 1) as pool:
             for future in [
                 pool.submit(
                     labyrinth_pass, *arguments, *options, band_counts[k], colour, start, stop,
-                    0, -1,
+                    0, -1, band_changes[k],
                 )  # fmt: skip
                 for k, (start, stop) in enumerate(zip(bands[:-1], bands[1:]))
             ]:
                 future.result()
     counts += band_counts[:, : len(DIAGNOSTIC_FIELDS)].sum(axis=0)
+    _gather_changes(changes, band_changes)
 
 
 @functools.lru_cache(maxsize=64)
@@ -431,9 +501,13 @@ def _kernel_options(parameters: LabyrinthParameters) -> tuple[Any, ...]:
     return (*codes, parameters.include_centre)
 
 
-def _write_back(target, values, initial, work, scale) -> None:
-    """The changed tones' values into ``target``: fused for an integer plane (no ``initial``)."""
-    if initial is None:
+def _write_back(target, values, initial, work, scale, changes) -> None:
+    """The changed tones' values into ``target``: fused for an integer plane (no ``initial``),
+    at the pixels the passes wrote if ``changes`` holds them all."""
+    listed = None if changes is None else listed_changes(changes)
+    if listed is not None:
+        write_listed_values(scale, target, values, work, listed)
+    elif initial is None:
         write_changed_values(scale, target, values, work)
     else:
         write_changes(target, initial, work, scale)

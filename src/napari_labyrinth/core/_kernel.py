@@ -312,12 +312,22 @@ def _kept_run(plane, y, x, x_stop, mean_threshold, variance_threshold, variance_
     return x
 
 
+@njit(inline="always")
+def _note_written(changes, index):
+    """Note that the pixel of flat index ``index`` was written (see ``labyrinth_pass``)."""
+    if changes is not None:
+        written = changes[0]
+        if written + 1 < changes.shape[0]:
+            changes[written + 1] = index
+        changes[0] = written + 1
+
+
 @njit(cache=True, nogil=True)
 def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone_low, tone_high,
                    max_tries, seed, plane_index, pass_index, border, variance_ratio,
                    variance_action, condition_order, on_exhausted, scan, include_centre,
                    has_nonfinite, counts, colour=-1, row_start=0, row_stop=-1,
-                   diagonal_start=0, diagonal_stop=-1):  # fmt: skip
+                   diagonal_start=0, diagonal_stop=-1, changes=None):  # fmt: skip
     """Run one pass of the algorithm over ``plane`` in place (Eq. 1-4).
 
     Parameters
@@ -344,6 +354,12 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
         serpentine scan, the pixels with ``diagonal_start <= x + y <
         diagonal_stop``: a parallelogram tile of the exact-order schedule
         (``_engine``). A stop of -1 is the end of the plane.
+    changes : (1 + capacity,) int64 array, optional
+        Where the pass notes the pixels it writes: ``changes[0]`` is
+        incremented for every write and the first ``capacity`` writes' flat
+        indices ``y * W + x`` follow it (so that the write-back of a few
+        changes need not visit the whole plane). A pixel written to the
+        tone it had is noted too.
 
     Notes
     -----
@@ -463,6 +479,7 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
                 )  # fmt: skip
                 if pushed:
                     plane[y, x] = draw
+                    _note_written(changes, y * width + x)
                     pushed_count += 1
                 else:
                     left += 1
@@ -478,11 +495,13 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
             )  # fmt: skip
             if accepted:
                 plane[y, x] = draw
+                _note_written(changes, y * width + x)
                 redrawn += 1
             else:
                 exhausted += 1
                 if on_exhausted != KEEP and max_tries > 0:
                     plane[y, x] = draw
+                    _note_written(changes, y * width + x)
     counts[KEPT_BY_MEAN] += kept
     counts[LEFT_BY_VARIANCE] += left
     counts[PUSHED] += pushed_count

@@ -7,6 +7,7 @@
   ``ToneScale.from_tones``, written over the source values in place, with no
   mask and no temporary array; a tone has changed where its bits differ from
   those of the source value's tone, computed again (nothing else is kept);
+- ``write_back_at``: the same at listed pixels only (those a pass wrote);
 - ``rounded_tones``: the same for uint8 on the paper's own scale (0, 255),
   where a tone *is* its value: every tone is rounded back, changed or not.
 
@@ -91,6 +92,25 @@ def write_back(target, source, tones, low, gain, low32, gain32, wide, lowest, hi
                 continue
             value = np.rint(np.float64(tone) / gain + low)
             target[y, x] = min(max(value, lowest), highest)
+
+
+@njit(cache=True, nogil=True)
+def write_back_at(target, source, tones, indices, low, gain, low32, gain32, wide, lowest,
+                  highest):  # fmt: skip
+    """``write_back`` at the pixels of flat indices ``y * W + x`` in ``indices`` only.
+
+    Every other pixel must have its source tone (the pass did not write it);
+    an index may be listed more than once.
+    """
+    width = source.shape[1]
+    for index in indices:
+        y, x = index // width, index % width
+        tone = tones[y, x]
+        before = _tone(source[y, x], low, gain, low32, gain32, wide)
+        if tone == before and math.copysign(1.0, tone) == math.copysign(1.0, before):
+            continue
+        value = np.rint(np.float64(tone) / gain + low)
+        target[y, x] = min(max(value, lowest), highest)
 
 
 @njit(cache=True, nogil=True)

@@ -212,6 +212,24 @@ def write_changed_values(
     )
 
 
+def write_listed_values(
+    scale: ToneScale, target: np.ndarray, values: np.ndarray, tones: np.ndarray, indices
+) -> None:
+    """:func:`write_changed_values` where only the pixels of flat ``indices`` may have changed.
+
+    ``indices`` (int64, repeats allowed) lists every pixel whose tone a pass
+    wrote (``labyrinth_pass``'s ``changes``); the others are not visited.
+    ``values`` is a C-contiguous integer plane, ``target`` a plane of its dtype.
+    """
+    from ._tone_loops import write_back_at  # numba is imported on first use only
+
+    info = np.iinfo(values.dtype)
+    write_back_at(
+        target, values, tones, indices, *_loop_scale(scale, values.dtype), float(info.min),
+        float(info.max),
+    )  # fmt: skip
+
+
 def _is_paper_scale(scale: ToneScale, dtype: np.dtype) -> bool:
     """uint8 values on the scale (0, 255): each value is its own tone."""
     return np.dtype(dtype) == np.uint8 and (scale.low, scale.high) == (0.0, 255.0)
