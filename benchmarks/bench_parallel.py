@@ -3,14 +3,17 @@
 Sections (all by default; ``--sections`` picks some):
 
 - ``exact``: one plane, one pass in raster order: the serial kernel, the
-  parallelogram tiles on 1 thread (their overhead) and on 2 (and every core),
+  parallelogram tiles forced onto 1 thread (their overhead) and, as
+  ``labyrinth()`` runs them, on 2 (and every core; ``run_pass`` with its
+  default tiles, which takes no more threads than ``_engine.idle_cores()``),
   interleaved, best and median of ``--repeats``; at 2048² and ``--big``²
   (8192²); bit-identity of every variant with the serial pass. On a busy
   machine the best of a few runs favours one thread (one thread is more
   likely to get a whole pass undisturbed than two at once): read the medians
   too.
 - ``loaded``: the same at 2048² while another process keeps one core busy
-  (a plain Python loop started here and stopped after).
+  (a plain Python loop started here and stopped after); the idle cores seen
+  before each section are printed.
 - ``tiles``: tile-size sensitivity, 2 threads, rows x diagonals.
 - ``model``: the time of every tile measured on one thread, then the
   schedule of ``_engine._exact_order`` simulated on 1 to 16 cores (each band
@@ -89,10 +92,13 @@ def compare_threads(tones, parameters, repeats, thread_counts):
     reference_counts = run_pass(reference, parameters, has_nonfinite=False)
     variants = {"serial": lambda t: run_pass(t, parameters, has_nonfinite=False)}
     for workers in thread_counts:
-        tile = default_tile(tones.shape, workers)
-        variants[f"{workers} thr"] = lambda t, w=workers, tile=tile: tiled_pass(
-            t, parameters, w, tile
-        )
+        if workers == 1:  # the tiles' own cost: forced onto one thread
+            tile = default_tile(tones.shape, workers)
+            variants["1 thr"] = lambda t, tile=tile: tiled_pass(t, parameters, 1, tile)
+        else:  # as labyrinth() runs them: default tiles, no more threads than idle cores
+            variants[f"{workers} thr"] = lambda t, w=workers: run_pass(
+                t, parameters, has_nonfinite=False, workers=w
+            )
     seconds = {name: [] for name in variants}
     same = dict.fromkeys(variants, True)
     for _ in range(repeats):
@@ -125,7 +131,9 @@ def print_threads(title, tones, parameters, repeats, thread_counts):
             f"{serial / best:>10.2f}x{median * 1e3:>11.1f}{serial_median / median:>10.2f}x"
             f"{'yes' if same[name] else 'NO':>6}"
         )
-    print(f"({load()})")
+    from napari_labyrinth._engine import idle_cores
+
+    print(f"({load()}; idle cores seen by labyrinth() now: {idle_cores()})")
 
 
 @contextlib.contextmanager

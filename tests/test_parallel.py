@@ -1,6 +1,7 @@
 """Threads change the speed, never the result."""
 
 import itertools
+import os
 import threading
 
 import numpy as np
@@ -247,6 +248,8 @@ def test_orders_the_tiles_cannot_follow_run_otherwise_and_say_so(option, value, 
 def test_a_large_plane_uses_the_tiles_by_default_with_the_same_result(monkeypatch):
     from napari_labyrinth import _engine
 
+    monkeypatch.setattr(_engine, "idle_cores", lambda: 8)  # as on an idle machine
+
     calls = []
     real = _engine._exact_order
     monkeypatch.setattr(
@@ -275,6 +278,8 @@ def test_padded_counts_give_each_thread_whole_cache_lines():
 def test_workers_left_over_by_the_planes_tile_each_plane(monkeypatch):
     from napari_labyrinth import _engine
 
+    monkeypatch.setattr(_engine, "idle_cores", lambda: 8)  # as on an idle machine
+
     calls = []
     real = _engine._exact_order
     monkeypatch.setattr(
@@ -287,3 +292,32 @@ def test_workers_left_over_by_the_planes_tile_each_plane(monkeypatch):
     assert calls == [2, 2]  # two planes at once, each on two threads
     np.testing.assert_array_equal(four[0], one[0])
     np.testing.assert_array_equal(four[1], one[1])
+
+
+def test_the_default_tiles_take_no_more_threads_than_idle_cores(monkeypatch):
+    from napari_labyrinth import _engine
+
+    calls = []
+    real = _engine._exact_order
+    monkeypatch.setattr(
+        _engine, "_exact_order", lambda *args: calls.append(args[6]) or real(*args)
+    )
+    plane = textured_plane((300, 260), seed=5)
+    parameters = make_parameters(**PRESETS["paper"])
+    want = plane.copy()
+    want_counts = run_pass(want, parameters)
+    for idle, expected in [(1, []), (2, [2]), (8, [3])]:
+        calls.clear()
+        monkeypatch.setattr(_engine, "idle_cores", lambda idle=idle: idle)
+        got = plane.copy()
+        assert_same(want, want_counts, got, run_pass(got, parameters, workers=3))
+        assert calls == expected
+    calls.clear()  # given tiles are the caller's: exactly as asked
+    run_pass(plane.copy(), parameters, workers=3, tile=(16, 64))
+    assert calls == [3]
+
+
+def test_idle_cores_counts_at_least_one():
+    from napari_labyrinth._engine import idle_cores
+
+    assert 1 <= idle_cores() <= (os.cpu_count() or 1)

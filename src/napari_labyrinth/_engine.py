@@ -15,6 +15,7 @@ import functools
 import heapq
 import logging
 import math
+import os
 import queue
 import threading
 from collections.abc import Generator
@@ -231,7 +232,9 @@ def run_pass(
     each colour. A raster plane of one band of tiles, or by default of fewer
     than ``MIN_PARALLEL_PIXELS`` pixels, runs on one thread, as does an order
     the tiles cannot reproduce (:func:`exact_order_refusal`; the
-    ``napari_labyrinth`` logger says so).
+    ``napari_labyrinth`` logger says so). Without ``tile``, the tiles take no
+    more threads than :func:`idle_cores`: on a core shared with a busy task,
+    a tile thread would hold up the others.
     """
     from .core._kernel import labyrinth_pass  # numba is imported on first use only
 
@@ -254,10 +257,13 @@ def run_pass(
         if refusal is not None:
             _LOG.info("one thread for this plane: %s", refusal)
         elif tones.shape[0] > rows and (tile is not None or tones.size >= MIN_PARALLEL_PIXELS):
-            _exact_order(
-                labyrinth_pass, arguments, options, counts, rows, diagonals, workers, changes
-            )
-            return counts
+            if tile is None:  # by default, no more threads than idle cores
+                workers = min(workers, idle_cores())
+            if workers > 1:
+                _exact_order(
+                    labyrinth_pass, arguments, options, counts, rows, diagonals, workers, changes
+                )
+                return counts
     # every call gives every argument: one compiled kernel serves all of them
     labyrinth_pass(*arguments, *options, counts, -1, 0, -1, 0, -1, changes)
     return counts
@@ -304,6 +310,24 @@ def _gather_changes(changes: np.ndarray, parts: list[np.ndarray]) -> None:
 
 #: Planes with fewer pixels run on one thread: the tiles would cost more than they gain.
 MIN_PARALLEL_PIXELS = 256 * 256
+
+
+def idle_cores() -> int:
+    """The cores this process may use that run no other task now (at least 1).
+
+    Linux counts the tasks that run or wait to run in ``/proc/loadavg`` (the
+    caller is one of them). The tiles of one plane wait on each other: a tile
+    thread that shares its core with a busy task holds up the others, and
+    two threads on one free core run slower than one thread, so a pass takes
+    no more threads than there are idle cores. Elsewhere: every core.
+    """
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    try:
+        with open("/proc/loadavg", encoding="ascii") as loadavg:
+            running = int(loadavg.read().split()[3].split("/")[0])
+    except (OSError, ValueError, IndexError):
+        return cores or 1
+    return max(1, (cores or 1) - (running - 1))
 
 
 def exact_order_refusal(parameters: LabyrinthParameters) -> str | None:
@@ -389,37 +413,46 @@ def _exact_order(
     failed: list[BaseException] = []
 
     def queue_if_ready(band):
-        """Queue ``band`` if its next tile may run (called holding ``changed``)."""
+        """Queue ``band`` if its next tile may run (called holding ``changed``); 1 if queued."""
         if band >= bands or not waiting[band] or position[band] == len(tiles[band]):
-            return
+            return 0
         j = tiles[band][position[band]]
         if band == 0 or finished[band - 1] >= min(j, tiles[band - 1][-1]) + 1:
             waiting[band] = False
             heapq.heappush(ready, band)
+            return 1
+        return 0
+
+    head = (*arguments, *options)
+    sleeping = [0]  # threads waiting on ``changed``: woken only if there is work for them
 
     def work(worker):
+        own_counts, own_changes = band_counts[worker], worker_changes[worker]
+        band = j = -1
         try:
             while True:
-                with changed:
+                with changed:  # one hold per tile: the last one's end, the next one's start
+                    if band >= 0:
+                        finished[band] = j + 1
+                        position[band] += 1
+                        remaining[0] -= 1
+                        waiting[band] = True
+                        freed = queue_if_ready(band) + queue_if_ready(band + 1)
+                        if freed and sleeping[0]:
+                            changed.notify(freed)
                     while not ready and remaining[0] and not failed:
+                        sleeping[0] += 1
                         changed.wait()
+                        sleeping[0] -= 1
                     if failed or not remaining[0]:
+                        changed.notify_all()  # the others stop too
                         return
                     band = heapq.heappop(ready)
                     j = tiles[band][position[band]]
                 labyrinth_pass(
-                    *arguments, *options, band_counts[worker], -1, band * rows,
-                    min(height, (band + 1) * rows), j * diagonals, (j + 1) * diagonals,
-                    worker_changes[worker],
+                    *head, own_counts, -1, band * rows, min(height, (band + 1) * rows),
+                    j * diagonals, (j + 1) * diagonals, own_changes,
                 )  # fmt: skip
-                with changed:
-                    finished[band] = j + 1
-                    position[band] += 1
-                    remaining[0] -= 1
-                    waiting[band] = True
-                    queue_if_ready(band)
-                    queue_if_ready(band + 1)
-                    changed.notify_all()
         except BaseException as error:  # noqa: BLE001 - raised in the caller's thread
             with changed:
                 failed.append(error)
