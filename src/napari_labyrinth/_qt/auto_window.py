@@ -17,12 +17,12 @@ from magicgui.widgets import Container, PushButton
 from napari.qt.threading import thread_worker
 from qtpy.QtCore import QPointF, QRectF, Qt
 from qtpy.QtGui import QColor, QPainter, QPen
-from qtpy.QtWidgets import QSizePolicy, QWidget
+from qtpy.QtWidgets import QSizePolicy
 
 from ..plan import Choices, LayerSnapshot, make_plan
 from ..window import Window, window_for
 from .form import ParameterForm
-from .plot_layout import INSET, SWATCH, PlotLayout, compact_font, plot_layout
+from .plot_layout import INSET, SWATCH, FittedPlot, PlotLayout, compact_font, plot_layout
 
 #: The field the button fills.
 FIELD = "variance_threshold"
@@ -126,7 +126,7 @@ class AutoWindow:
         self.worker = None
 
 
-class WindowPlot(QWidget):
+class WindowPlot(FittedPlot):
     """Edge enhancement against V (log scale), the window shaded, the chosen V marked."""
 
     def __init__(self) -> None:
@@ -158,18 +158,8 @@ class WindowPlot(QWidget):
             self.width(), self.fontMetrics(), axis, [self.window.summary(note=False), *note]
         )
 
-    def fit_height(self) -> bool:
-        """Take the height the layout needs at the current width; whether it changed."""
-        height = self.plot_rects().height
-        if height == self.height():
-            return False
-        self.setFixedHeight(height)
-        return True
-
-    def resizeEvent(self, event) -> None:  # noqa: N802 - Qt's name
-        super().resizeEvent(event)
-        if self.window is not None:
-            self.fit_height()
+    def has_data(self) -> bool:
+        return self.window is not None
 
     def x_of(self, value: float, frame: QRectF) -> float:
         """Horizontal position of ``value`` in ``frame`` (log scale over the probed V)."""
