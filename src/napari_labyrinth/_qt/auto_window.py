@@ -126,6 +126,10 @@ class AutoWindow:
         self.worker = None
 
 
+#: What the Auto plot's curve is (its legend entry).
+CURVE_CAPTION = "edge enhancement"
+
+
 class WindowPlot(FittedPlot):
     """Edge enhancement against V (log scale), the window shaded, the chosen V marked."""
 
@@ -154,9 +158,8 @@ class WindowPlot(FittedPlot):
         thresholds = [v for v in self.window.thresholds if v > 0]
         axis = (f"{thresholds[0]:.3g}", "V (log scale)", f"{thresholds[-1]:.3g}")
         note = [self.window.open_note] if self.window.open_note else []  # a line of its own
-        return plot_layout(
-            self.width(), self.fontMetrics(), axis, [self.window.summary(note=False), *note]
-        )
+        captions = [CURVE_CAPTION, self.window.summary(note=False), *note]
+        return plot_layout(self.width(), self.fontMetrics(), axis, captions)
 
     def has_data(self) -> bool:
         return self.window is not None
@@ -207,13 +210,19 @@ class WindowPlot(FittedPlot):
         best = self.x_of(window.best, frame)
         painter.setPen(QPen(text, 1, Qt.PenStyle.DashLine))
         painter.drawLine(QPointF(best, frame.top()), QPointF(best, frame.bottom()))
-        (caption_rect, caption), *notes = rects.legend
+        (curve_rect, curve), (caption_rect, caption), *notes = rects.legend
         middle = caption_rect.center().y()
         painter.drawLine(  # the caption's swatch: the dashed line of the chosen V
             QPointF(caption_rect.left() - SWATCH + 1, middle),
             QPointF(caption_rect.left() - 4, middle),
         )
+        painter.setPen(QPen(QColor(_CURVE), 2))
+        middle = curve_rect.center().y()
+        painter.drawLine(  # the curve's swatch
+            QPointF(curve_rect.left() - SWATCH + 1, middle), QPointF(curve_rect.left() - 4, middle)
+        )
         painter.setPen(QPen(text, 1))
+        painter.drawText(curve_rect, int(Qt.AlignmentFlag.AlignLeft), curve)
         for rect, flags, axis_text in rects.axis:
             painter.drawText(rect, flags, axis_text)
         painter.drawText(caption_rect, int(Qt.AlignmentFlag.AlignLeft), caption)
