@@ -167,6 +167,24 @@ def test_float16_with_tone_limits_beyond_its_range_makes_no_infinity():
     assert np.isfinite(out).all()
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.int16, np.float16, np.float32, np.float64])
+@pytest.mark.parametrize("limits", [(-1e300, 1e300), (-3e38, 3e38), (0.0, 1e-200), (1e36, 2e36)])
+def test_finite_values_get_finite_tones_whatever_the_tone_limits(dtype, limits):
+    # float32 intermediates overflowed for limits beyond its range: finite pixels got NaN
+    # tones, and NaN tones are left alone as holes, silently
+    from napari_labyrinth.core.tone_scale import ToneScale
+
+    info = np.finfo(dtype) if np.dtype(dtype).kind == "f" else np.iinfo(dtype)
+    values = np.array([info.min, info.min + 1, 0, 1, info.max], dtype=dtype)
+    tones = ToneScale(*limits).to_tones(values)
+    assert np.isfinite(tones).all() and (tones >= 0).all() and (tones <= 255).all(), tones
+
+
+def test_tone_limits_too_close_for_a_scale_are_refused():
+    with pytest.raises(ValueError, match="tone_limits .* too close"):
+        labyrinth(IMAGE.astype(np.float32), tone_limits=(0.0, 5e-324))
+
+
 @pytest.mark.parametrize(
     "shape,axis,alpha",
     [((12, 12, 2), -1, True), ((2, 12, 12), 0, True), ((12, 12, 4), -1, None), ((4, 12, 12), 0, None),

@@ -63,7 +63,7 @@ def test_closing_the_widget_during_a_search_leaves_it_alone(qtbot, viewer, widge
 
 
 def test_the_plot_notes_a_window_open_at_an_end(qtbot):
-    from napari_labyrinth._qt.auto_window import WindowPlot
+    from napari_labyrinth._qt.auto_window import CURVE_CAPTION, WindowPlot
     from napari_labyrinth.window import Window
 
     thresholds = (0.01, 0.02, 0.04, 0.08)
@@ -73,11 +73,12 @@ def test_the_plot_notes_a_window_open_at_an_end(qtbot):
     qtbot.addWidget(plot)
     plot.show_window(closed)
     assert closed.open_note == "" and "probed" not in closed.summary()
-    assert [text for _, text in plot.plot_rects().legend] == [closed.summary()]
+    # the curve says what it is, the dashed line which V was chosen
+    assert [text for _, text in plot.plot_rects().legend] == [CURVE_CAPTION, closed.summary()]
     plot.show_window(open_low)
     assert open_low.open_note == "it reaches the lowest V probed"
     assert open_low.summary().endswith("; it reaches the lowest V probed)")
     # the note is a caption of its own under the curve
     captions = [text for _, text in plot.plot_rects().legend]
-    assert captions == [open_low.summary(note=False), open_low.open_note]
+    assert captions == [CURVE_CAPTION, open_low.summary(note=False), open_low.open_note]
     plot.grab()  # paints without error

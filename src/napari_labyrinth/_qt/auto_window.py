@@ -17,12 +17,12 @@ from magicgui.widgets import Container, PushButton
 from napari.qt.threading import thread_worker
 from qtpy.QtCore import QPointF, QRectF, Qt
 from qtpy.QtGui import QColor, QPainter, QPen
-from qtpy.QtWidgets import QSizePolicy, QWidget
+from qtpy.QtWidgets import QSizePolicy
 
 from ..plan import Choices, LayerSnapshot, make_plan
 from ..window import Window, window_for
 from .form import ParameterForm
-from .plot_layout import INSET, SWATCH, PlotLayout, compact_font, plot_layout
+from .plot_layout import INSET, SWATCH, FittedPlot, PlotLayout, compact_font, plot_layout
 
 #: The field the button fills.
 FIELD = "variance_threshold"
@@ -126,7 +126,11 @@ class AutoWindow:
         self.worker = None
 
 
-class WindowPlot(QWidget):
+#: What the Auto plot's curve is (its legend entry).
+CURVE_CAPTION = "edge enhancement"
+
+
+class WindowPlot(FittedPlot):
     """Edge enhancement against V (log scale), the window shaded, the chosen V marked."""
 
     def __init__(self) -> None:
@@ -154,22 +158,11 @@ class WindowPlot(QWidget):
         thresholds = [v for v in self.window.thresholds if v > 0]
         axis = (f"{thresholds[0]:.3g}", "V (log scale)", f"{thresholds[-1]:.3g}")
         note = [self.window.open_note] if self.window.open_note else []  # a line of its own
-        return plot_layout(
-            self.width(), self.fontMetrics(), axis, [self.window.summary(note=False), *note]
-        )
+        captions = [CURVE_CAPTION, self.window.summary(note=False), *note]
+        return plot_layout(self.width(), self.fontMetrics(), axis, captions)
 
-    def fit_height(self) -> bool:
-        """Take the height the layout needs at the current width; whether it changed."""
-        height = self.plot_rects().height
-        if height == self.height():
-            return False
-        self.setFixedHeight(height)
-        return True
-
-    def resizeEvent(self, event) -> None:  # noqa: N802 - Qt's name
-        super().resizeEvent(event)
-        if self.window is not None:
-            self.fit_height()
+    def has_data(self) -> bool:
+        return self.window is not None
 
     def x_of(self, value: float, frame: QRectF) -> float:
         """Horizontal position of ``value`` in ``frame`` (log scale over the probed V)."""
@@ -217,13 +210,19 @@ class WindowPlot(QWidget):
         best = self.x_of(window.best, frame)
         painter.setPen(QPen(text, 1, Qt.PenStyle.DashLine))
         painter.drawLine(QPointF(best, frame.top()), QPointF(best, frame.bottom()))
-        (caption_rect, caption), *notes = rects.legend
+        (curve_rect, curve), (caption_rect, caption), *notes = rects.legend
         middle = caption_rect.center().y()
         painter.drawLine(  # the caption's swatch: the dashed line of the chosen V
             QPointF(caption_rect.left() - SWATCH + 1, middle),
             QPointF(caption_rect.left() - 4, middle),
         )
+        painter.setPen(QPen(QColor(_CURVE), 2))
+        middle = curve_rect.center().y()
+        painter.drawLine(  # the curve's swatch
+            QPointF(curve_rect.left() - SWATCH + 1, middle), QPointF(curve_rect.left() - 4, middle)
+        )
         painter.setPen(QPen(text, 1))
+        painter.drawText(curve_rect, int(Qt.AlignmentFlag.AlignLeft), curve)
         for rect, flags, axis_text in rects.axis:
             painter.drawText(rect, flags, axis_text)
         painter.drawText(caption_rect, int(Qt.AlignmentFlag.AlignLeft), caption)

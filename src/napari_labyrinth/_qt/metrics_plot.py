@@ -7,9 +7,9 @@ from collections.abc import Mapping, Sequence
 
 from qtpy.QtCore import QPointF, Qt
 from qtpy.QtGui import QColor, QPainter, QPen
-from qtpy.QtWidgets import QSizePolicy, QWidget
+from qtpy.QtWidgets import QSizePolicy
 
-from .plot_layout import INSET, SWATCH, PlotLayout, compact_font, plot_layout
+from .plot_layout import INSET, SWATCH, FittedPlot, PlotLayout, compact_font, plot_layout
 
 #: The plotted metrics: (key, legend, colour).
 CURVES = (
@@ -18,7 +18,7 @@ CURVES = (
 )
 
 
-class MetricsPlot(QWidget):
+class MetricsPlot(FittedPlot):
     """The plotted metrics after pass 1, 2, …, each on its own 0-to-max scale.
 
     The passes run along the bottom of the data rectangle (first and last
@@ -65,18 +65,6 @@ class MetricsPlot(QWidget):
         axis = (str(min(passes)), "pass", str(max(passes)))
         captions = [caption for caption, _, _ in self._curves()]
         return plot_layout(self.width(), self.fontMetrics(), axis, captions)
-
-    def fit_height(self) -> bool:
-        """Take the height the layout needs at the current width; whether it changed."""
-        height = self.plot_rects().height
-        if height == self.height():
-            return False
-        self.setFixedHeight(height)
-        return True
-
-    def resizeEvent(self, event) -> None:  # noqa: N802 - Qt's name
-        super().resizeEvent(event)
-        self.fit_height()
 
     def paintEvent(self, _event) -> None:  # noqa: N802 - Qt's name
         if not self.rows:

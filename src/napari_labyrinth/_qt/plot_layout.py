@@ -14,6 +14,7 @@ from collections.abc import Sequence
 
 from qtpy.QtCore import QRectF, Qt
 from qtpy.QtGui import QFont, QFontMetrics
+from qtpy.QtWidgets import QWidget
 
 #: Size of the font of the metrics displays against the dock's: with it four passes of the
 #: metrics table fit beside its row headers at napari's default dock width.
@@ -135,3 +136,28 @@ def _aligned(rect: QRectF, text_width: float, where) -> QRectF:
         left = rect.center().x() - text_width / 2
         return QRectF(left, rect.top(), text_width, rect.height())
     return QRectF(rect.left(), rect.top(), text_width, rect.height())
+
+
+class FittedPlot(QWidget):
+    """A small plot whose height follows its width: subclasses say where things go."""
+
+    def plot_rects(self) -> PlotLayout:
+        """Where the data, the axis and the captions go at the widget's width."""
+        raise NotImplementedError
+
+    def has_data(self) -> bool:
+        """Whether there is anything to lay out (the height is kept until there is)."""
+        return True
+
+    def fit_height(self) -> bool:
+        """Take the height the layout needs at the current width; whether it changed."""
+        height = self.plot_rects().height
+        if height == self.height():
+            return False
+        self.setFixedHeight(height)
+        return True
+
+    def resizeEvent(self, event) -> None:  # noqa: N802 - Qt's name
+        super().resizeEvent(event)
+        if self.has_data():
+            self.fit_height()

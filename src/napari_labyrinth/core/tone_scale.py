@@ -58,16 +58,23 @@ class ToneScale:
     def _gain(self) -> float:
         return 255.0 / (self.high - self.low)
 
+    @property
+    def _fits_float32(self) -> bool:
+        """Whether float32 intermediates hold the map (limits and gain well inside its
+        range); otherwise a finite value could become an infinite or NaN tone."""
+        return max(abs(self.low), abs(self.high)) < 1e37 and 1e-30 < self._gain < 1e30
+
     def to_tones(self, values: np.ndarray) -> np.ndarray:
         """float32 tones of ``values``; non-finite values become NaN."""
         if _is_paper_scale(self, values.dtype):
             return values.astype(np.float32)  # the paper's own scale
-        if values.dtype.itemsize <= 2 or values.dtype == np.float32:
+        if (values.dtype.itemsize <= 2 or values.dtype == np.float32) and self._fits_float32:
             # values are exact in float32: map there, with half the memory traffic
             tones = np.subtract(values, np.float32(self.low), dtype=np.float32)
             tones *= np.float32(self._gain)
         else:
-            tones = ((values - self.low) * self._gain).astype(np.float32)
+            tones = np.subtract(values, self.low, dtype=np.float64) * self._gain
+            tones = tones.astype(np.float32)
         np.clip(tones, 0.0, 255.0, out=tones)
         if values.dtype.kind == "f":
             finite = np.isfinite(values)
@@ -137,7 +144,14 @@ def separated_limits(low: float, high: float) -> tuple[float, float]:
 
 
 def _finite_span(low: float, high: float, *, given: bool) -> tuple[float, float]:
-    """``(low, high)``, refused when ``high - low`` overflows float64 (the gain would be 0)."""
+    """``(low, high)``, refused when ``high - low`` overflows float64 (the gain would be 0)
+    or is so small that the gain ``255 / (high - low)`` overflows."""
+    if math.isfinite(high - low) and not math.isfinite(255.0 / (high - low)):
+        what = "tone_limits" if given else "the default tone limits (percentiles) of image"
+        raise ValueError(
+            f"{what} ({low!r}, {high!r}) are too close for a tone scale: "
+            "pass tone_limits that differ by at least 1e-300"
+        )
     if not math.isfinite(high - low):
         what = "tone_limits" if given else "the default tone limits (percentiles) of image"
         raise ValueError(
