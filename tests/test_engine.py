@@ -136,6 +136,8 @@ from napari_labyrinth.core.tone_scale import (  # noqa: E402
 )
 
 INTEGER_SCALES = [(0.0, 255.0), (12.0, 3000.5), (-100.0, 100.0), (0.0, 1.0), (-5e9, 5e9)]
+# limits or a gain that float32 does not hold: float64, as ToneScale.to_tones
+INTEGER_SCALES += [(-1e38, 1e38), (0.0, 1e-31), (-1e300, 1e300)]
 
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.int8, np.uint16, np.int16, np.uint32, np.int32])

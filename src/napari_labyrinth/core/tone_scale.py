@@ -256,4 +256,7 @@ def _fused(values: np.ndarray) -> bool:
 def _loop_scale(scale: ToneScale, dtype: np.dtype) -> tuple[Any, ...]:
     """low, gain, both as float32, and whether the values need float64 (as ``to_tones``)."""
     gain = scale._gain
-    return scale.low, gain, np.float32(scale.low), np.float32(gain), np.dtype(dtype).itemsize > 2
+    wide = np.dtype(dtype).itemsize > 2 or not scale._fits_float32
+    if not scale._fits_float32:  # float32 of the limits or the gain may not be finite
+        return scale.low, gain, np.float32(0.0), np.float32(1.0), wide
+    return scale.low, gain, np.float32(scale.low), np.float32(gain), wide
