@@ -228,7 +228,8 @@ def labyrinth(
         Threads to use (default: every core; 1 to 1024). Planes run
         concurrently; a single large plane runs on them in tiles that keep the
         scan's exact order (not with ``border="wrap"`` or
-        ``scan="serpentine"``: see ``docs/algorithm.md``). The result does not
+        ``scan="serpentine"``: see ``docs/algorithm.md``), on no more threads
+        than cores that no other task keeps busy. The result does not
         depend on it.
     return_diagnostics : bool, optional
         Also return the per-pass counts (see Returns).
