@@ -13,7 +13,7 @@
 
 Each loop does the arithmetic of its numpy counterpart in the same precision
 and order (float32 for 8- and 16-bit values, float64 for 32-bit ones), so the
-results are bit for bit the same; ``tests/core/test_tone_scale.py`` checks it.
+results are bit for bit the same; ``tests/test_engine.py`` checks it.
 """
 
 import math
@@ -103,6 +103,8 @@ def write_back_at(target, source, tones, indices, low, gain, low32, gain32, wide
     an index may be listed more than once.
     """
     width = source.shape[1]
+    # write_back's body, repeated: shared through an inlined helper it made write_back's
+    # whole-plane loop three times slower (6.3 ms against 2.1 ms at 2048²)
     for index in indices:
         y, x = index // width, index % width
         tone = tones[y, x]
