@@ -180,6 +180,13 @@ def test_finite_values_get_finite_tones_whatever_the_tone_limits(dtype, limits):
     assert np.isfinite(tones).all() and (tones >= 0).all() and (tones <= 255).all(), tones
 
 
+def test_an_image_of_subnormal_values_renders_on_a_widened_scale():
+    # its own percentiles are closer than any usable gain: widened, never refused
+    image = np.array([[2.22507386e-309, 0.0], [1e-310, 3e-309]])
+    out = labyrinth(image, passes=1)
+    assert out.shape == image.shape and np.isfinite(out).all()
+
+
 def test_tone_limits_too_close_for_a_scale_are_refused():
     with pytest.raises(ValueError, match="tone_limits .* too close"):
         labyrinth(IMAGE.astype(np.float32), tone_limits=(0.0, 5e-324))

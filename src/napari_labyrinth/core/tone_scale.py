@@ -129,28 +129,36 @@ def resolve_tone_scale(values: np.ndarray, tone_limits: tuple[float, float] | No
 
 
 def separated_limits(low: float, high: float) -> tuple[float, float]:
-    """Tone limits of a constant image (``high <= low``) made a usable scale.
+    """Tone limits of an image made a usable scale.
 
-    ``high = low + 1``, or one float64 step above ``low`` where 1 is below
-    that step (``|low| >= 2**53``, where ``low + 1`` rounds to ``low``);
-    below ``low`` for the largest float64.
+    A constant image (``high <= low``): ``high = low + 1``, or one float64
+    step above ``low`` where 1 is below that step (``|low| >= 2**53``, where
+    ``low + 1`` rounds to ``low``); below ``low`` for the largest float64.
+    Limits closer than ``MIN_TONE_SPAN`` (subnormal values, whose gain
+    ``255 / (high - low)`` would overflow): ``high = low + MIN_TONE_SPAN``.
     """
     if high > low:
-        return low, high
+        return low, max(high, low + MIN_TONE_SPAN)
     step = max(1.0, math.ulp(low))
     if math.isfinite(low + step):
         return low, low + step
     return low - step, low
 
 
+#: The narrowest tone scale: below it the gain ``255 / (high - low)`` could overflow.
+MIN_TONE_SPAN = 1e-300
+
+
 def _finite_span(low: float, high: float, *, given: bool) -> tuple[float, float]:
-    """``(low, high)``, refused when ``high - low`` overflows float64 (the gain would be 0)
-    or is so small that the gain ``255 / (high - low)`` overflows."""
-    if math.isfinite(high - low) and not math.isfinite(255.0 / (high - low)):
-        what = "tone_limits" if given else "the default tone limits (percentiles) of image"
+    """``(low, high)``, refused when ``high - low`` overflows float64 (the gain would be 0).
+
+    Given limits closer than ``MIN_TONE_SPAN`` (the gain would overflow) are
+    refused; the image's own are widened by ``separated_limits``.
+    """
+    if given and high - low < MIN_TONE_SPAN:
         raise ValueError(
-            f"{what} ({low!r}, {high!r}) are too close for a tone scale: "
-            "pass tone_limits that differ by at least 1e-300"
+            f"tone_limits ({low!r}, {high!r}) are too close for a tone scale: "
+            f"pass tone_limits that differ by at least {MIN_TONE_SPAN:g}"
         )
     if not math.isfinite(high - low):
         what = "tone_limits" if given else "the default tone limits (percentiles) of image"
