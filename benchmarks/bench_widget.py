@@ -8,6 +8,7 @@ nothing; the machine's load is printed before and after. Parts:
 - ``single``: Run -> result layer of one 2048² uint16 plane, default preset, warm, split
   into the worker's rendering and napari's time adding the layer, when the run updates
   the last result in place ("replace last", the default) and when it adds a layer;
+  and, for comparison, napari alone adding a layer of the same size (no plugin);
 - ``stack``: 4 passes with metrics, 2048²; the time to cancel;
 - ``planes``: a 20-plane 2048² movie, 4 passes (the first run adds the layer).
 
@@ -245,6 +246,37 @@ def bench_single(viewer, widget, size: int, repeats: int, replace: bool) -> list
     return runs
 
 
+def bench_bare_add(viewer, size: int, repeats: int) -> list[dict]:
+    """napari alone, no plugin: ``viewer.add_image`` of a ``size``² uint16 plane from an
+    event-loop callback (as a finished run's result arrives), watched like a run: what
+    any new layer of that size costs the event loop on this machine."""
+    from qtpy.QtCore import QTimer
+
+    _clear(viewer)
+    viewer.add_image(image(size), name=f"{size}")
+    runs = []
+    for k in range(repeats + 1):
+        data = image(size)
+        marks: dict[str, float] = {}
+
+        def add(data=data, k=k, marks=marks) -> None:
+            started = time.perf_counter()
+            viewer.add_image(data, name=f"bare {k}", contrast_limits=(0, 65535))
+            marks["adding"] = time.perf_counter() - started
+
+        gap, draw = GapMeter(), DrawMeter()
+        with gap, draw:
+            _events(0.1)
+            gap.longest = 0.0
+            QTimer.singleShot(0, add)
+            _events(0.6)
+        runs.append({"adding": marks["adding"], "gap_showing": gap.longest, "drawing": draw.longest})
+    for layer in [layer for layer in viewer.layers if layer.name != f"{size}"]:
+        viewer.layers.remove(layer)
+        _events(0.05)
+    return runs[1:]  # the first is a warm-up
+
+
 def _print_runs(runs: list[dict]) -> None:
     """One line per run (milliseconds but the total)."""
     print(
@@ -341,6 +373,16 @@ def _single_part(viewer, widget, args) -> None:
             f"  best: {1000 * best['total']:.0f} ms = rendering {1000 * best['rendering']:.0f} ms"
             f" + napari (adding the layer) {1000 * best['adding']:.0f} ms"
             f" + the rest {1000 * (best['total'] - best['rendering'] - best['adding']):.0f} ms"
+        )
+    print(
+        "\nnapari alone, no plugin: viewer.add_image of a 2048² uint16 plane from an"
+        " event-loop callback\n  run   add_image (main thread)   longest gap while"
+        " adding + drawing   of which: longest vispy draw (paintGL)"
+    )
+    for k, r in enumerate(bench_bare_add(viewer, 2048, args.repeats), 1):
+        print(
+            f"  {k:>3} {1000 * r['adding']:19.0f} ms {1000 * r['gap_showing']:30.0f} ms"
+            f" {1000 * r['drawing']:33.0f} ms"
         )
 
 

@@ -54,6 +54,49 @@ def test_removing_the_input_cancels_the_run(qtbot, viewer, widget):
     assert "input layer was removed" in widget.status.value
 
 
+@pytest.mark.parametrize("leave", ["close the dock", "remove the input"])
+def test_leaving_after_the_rendering_but_before_the_result_is_shown_adds_nothing(
+    qtbot, viewer, widget, leave
+):
+    """The result is shown in a later turn of the event loop than the worker's end: the
+    run is still on until then, and going away in between still adds nothing."""
+    source = viewer.add_image(noise((64, 64)), name="cell")
+    worker = widget.run(start=False)
+
+    def go(*_):
+        if leave == "close the dock":
+            viewer.window.remove_dock_widget(widget)
+        else:
+            viewer.layers.remove(source)
+
+    worker.finished.connect(go)  # runs after the widget's own handler, in the same turn
+    with qtbot.waitSignal(worker.finished, timeout=RUN_TIMEOUT_MS):
+        worker.start()
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    qtbot.wait(50)
+    assert [layer.name for layer in viewer.layers] == ([] if leave == "remove the input" else ["cell"])
+
+
+def test_a_new_result_layer_is_added_hidden_and_shown_in_a_later_turn(qtbot, viewer, widget):
+    """Adding a layer and drawing it are each tens of ms of napari's work on the main
+    thread: the widget puts them in turns of the event loop of their own."""
+    viewer.add_image(noise((64, 64)), name="cell")
+    widget.replace.value = False
+    seen = []
+    add_result = widget._add_result
+
+    def watched(*arguments):
+        layer = add_result(*arguments)
+        seen.append(layer.visible)
+        return layer
+
+    widget._add_result = watched
+    run(qtbot, widget)
+    assert seen == [False]  # hidden when the turn that added it ends
+    assert widget.last_result.visible and widget.last_result in viewer.layers
+    assert "Added" in widget.status.value and widget.run_button.enabled
+
+
 def test_the_widget_shows_the_progress_of_a_run(qtbot, viewer, widget):
     _, worker = _start_long_run(viewer, widget)
     seen = []
@@ -198,7 +241,7 @@ def test_closing_the_viewer_cancels_the_run(qtbot, make_napari_viewer):
     qtbot.waitUntil(_no_rendering_thread, timeout=RUN_TIMEOUT_MS)
 
 
-def test_the_progress_bar_changes_a_few_times_a_second_and_shows_the_end(widget, monkeypatch):
+def test_the_progress_bar_changes_a_few_times_a_second_not_at_the_end(widget, monkeypatch):
     import napari_labyrinth._qt.widget as widget_module
 
     clock = [100.0]
@@ -211,5 +254,8 @@ def test_the_progress_bar_changes_a_few_times_a_second_and_shows_the_end(widget,
     clock[0] += widget_module.PROGRESS_INTERVAL
     widget._on_progress(2)
     assert widget.progress_bar.value() == 2
+    clock[0] += widget_module.PROGRESS_INTERVAL
     widget._on_progress(10)
-    assert widget.progress_bar.value() == 10  # the last step, at once
+    # the last step: the bar is hidden as the result is shown; a repaint for it would
+    # stall the event loop in the same turn
+    assert widget.progress_bar.value() == 2

@@ -48,8 +48,11 @@ from .worker import add_result_layer, render_worker, stop
 
 __all__ = ["LabyrinthWidget"]
 
-#: Least seconds between two updates of the progress bar (but the last).
+#: Least seconds between two updates of the progress bar.
 PROGRESS_INTERVAL = 0.2
+#: Delay of a step put in a later turn of the event loop: a timer, not a 0 ms call, which
+#: Qt would run in the same turn, before due timers and pending repaints.
+NEXT_TURN_MS = 1
 #: The clock of those updates.
 _clock = time.monotonic
 
@@ -117,6 +120,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self.last_result: Image | None = None
         self._plan: RenderPlan | None = None
         self._outcome_received = False
+        self._outcome: Outcome | Failure | None = None
         self._compare = CompareView(napari_viewer)
 
         self.inputs = InputSection(napari_viewer)
@@ -393,6 +397,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self._plan = plan
         self._input = self.image_layer.value
         self._outcome_received = False
+        self._outcome = None
         self.run_button.enabled = False
         self.cancel_button.enabled = True
         self.progress_bar.setRange(0, plan.total_steps)
@@ -419,22 +424,53 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         plan = self._plan
         if outcome is None or plan is None or plan.cancel.is_set() or self._closed:
             return
+        self._outcome = outcome  # shown once the worker has finished (_end_run)
+
+    def _end_run(self) -> None:
+        """Show the run's result (a turn of the event loop of its own), and settle.
+
+        Adding a layer and drawing it are each tens of milliseconds of napari's and
+        Qt's work on the main thread (the layer's visual and controls; its texture, and
+        the repaint of the window, in software under Xvfb or a remote desktop): a new
+        layer is added hidden and shown in the next turn, so that the two do not stall
+        the event loop together. The run is still on (``worker`` set) until the widget
+        settles: a cancel, a closed dock or a removed input in between adds nothing.
+        """
+        plan, outcome, self._outcome = self._plan, self._outcome, None
+        layer = None
+        if outcome is not None and plan is not None and not plan.cancel.is_set():
+            if not self._closed:
+                layer = self._show_outcome(plan, outcome)
+        if layer is not None and not layer.visible:  # a new layer, added hidden
+            QTimer.singleShot(NEXT_TURN_MS, lambda: self._reveal(layer))
+        else:
+            self._settle()
+
+    def _reveal(self, layer: Image) -> None:
+        if not self._closed and layer in self.viewer.layers:
+            layer.visible = True
+            self.sweep_label.refresh()  # a sweep's label shows over a visible layer only
+        self._settle()
+
+    def _show_outcome(self, plan: RenderPlan, outcome: Outcome | Failure) -> Image | None:
+        """Add (or update) the result layer, or say why there is none."""
         self._outcome_received = True
         if isinstance(outcome, Failure):
             show_error(f"Labyrinthine tiling failed: {outcome.message}")
             self.status.value = f"Failed: {outcome.message}"
-            return
+            return None
         try:
-            self._add_result(plan, outcome)
+            return self._add_result(plan, outcome)
         except Exception as exc:  # noqa: BLE001 - shown to the user, not as a traceback
             show_error(f"Labyrinthine tiling: could not add the result layer: {exc}")
             self.status.value = f"Failed: {exc}"
+            return None
 
-    def _add_result(self, plan: RenderPlan, outcome: Outcome) -> None:
+    def _add_result(self, plan: RenderPlan, outcome: Outcome) -> Image:
         key = (plan.source, plan.mode)
         previous = self._results.get(key) if self.replace.value else None
-        self.last_result = layer = add_result_layer(self.viewer, plan, outcome, previous)
-        self._results[key] = layer
+        layer = add_result_layer(self.viewer, plan, outcome, previous, show_new=False)
+        self.last_result = self._results[key] = layer
         self.sweep_label.refresh()
         if plan.mode == "stack" and outcome.metric_rows:
             self.metrics_table.show_passes(outcome.metric_rows)
@@ -442,6 +478,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             self._shown_plane = tuple(plan.visible_index)
             QTimer.singleShot(0, self._reveal_metrics)
         self.status.value = f"Added {plan.description} ({outcome.seconds:.1f} s)"
+        return layer
 
     def _reveal_metrics(self, attempts: int = 10, last: tuple = ()) -> None:
         """Scroll the dock to the metrics just shown: the plot in full, and the table's
@@ -461,13 +498,18 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
     def _on_progress(self, step: int) -> None:
         if self._closed:  # after close the Qt side of the widget may be gone
             return
-        # each change repaints the window (tens of ms under software OpenGL): a few a second
+        # each change repaints the window (tens of ms under software OpenGL): a few a
+        # second, and not the last step (the bar is hidden as the result is shown)
         now = _clock()
-        if step >= self.progress_bar.maximum() or now - self._progress_shown >= PROGRESS_INTERVAL:
+        if step < self.progress_bar.maximum() and now - self._progress_shown >= PROGRESS_INTERVAL:
             self.progress_bar.setValue(step)
             self._progress_shown = now
 
     def _on_finished(self) -> None:
+        QTimer.singleShot(NEXT_TURN_MS, self._end_run)  # a turn of its own: see _end_run
+
+    def _settle(self) -> None:
+        """The run is over: buttons, progress bar and status show it."""
         cancelled = self._plan is not None and not self._outcome_received
         self.worker = None
         self._plan = None  # holds the input data: let it go

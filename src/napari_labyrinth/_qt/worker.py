@@ -47,7 +47,12 @@ def stop(worker, plan: RenderPlan) -> None:
 
 
 def add_result_layer(
-    viewer: Viewer, plan: RenderPlan, outcome: Outcome, previous: Image | None = None
+    viewer: Viewer,
+    plan: RenderPlan,
+    outcome: Outcome,
+    previous: Image | None = None,
+    *,
+    show_new: bool = True,
 ) -> Image:
     """Show the result of a finished run; a stack or sweep shows its last plane.
 
@@ -57,6 +62,10 @@ def add_result_layer(
     new layer put in its place in the layer list. In place is much cheaper
     for the event loop: napari builds no new visual and no new controls,
     and removing a layer makes napari run a full garbage collection.
+
+    With ``show_new=False`` a new layer is left hidden: the caller shows it
+    (``visible = True``) in a later turn of the event loop, so that napari's
+    adding it and its first draw do not stall the event loop together.
     """
     data, kwargs = result_layer(plan, outcome)
     if _updatable(viewer, previous, data, kwargs):
@@ -76,7 +85,8 @@ def add_result_layer(
     if plan.mode in ("stack", "sweep"):
         axis = viewer.dims.ndim - layer.ndim
         viewer.dims.set_current_step(axis, data.shape[0] - 1)
-    layer.visible = True
+    if layer is previous or show_new:
+        layer.visible = True
     return layer
 
 
