@@ -325,23 +325,27 @@ def percentiles(array: Any, q: Sequence[float]) -> list[float] | None:
 class _Window:
     """A set of values: those that fell in bin ``k`` of each histogram of ``chain``.
 
-    ``lo``, ``scale`` and ``bins`` define this window's own histogram:
-    ``bin(v) = clip(floor((v - lo) * scale), 0, bins - 1)``, a monotonic
-    function, so each bin holds a contiguous run of the sorted values and
-    the predicate, not the (approximate) bin edges, decides membership.
+    ``lo``, ``scale``, ``bins`` and ``shift`` define this window's own histogram:
+    ``bin(v) = clip(floor(ldexp(v - lo, shift) * scale), 0, bins - 1)``, a
+    monotonic function, so each bin holds a contiguous run of the sorted values
+    and the predicate, not the (approximate) bin edges, decides membership.
+    ``shift`` (exact: a power of two) keeps ``scale`` finite for values closer
+    together than float64's normal range (subnormal values): 0 for any other.
     """
 
-    chain: tuple[tuple[float, float, int, int], ...] = ()  # (lo, scale, bins, k) per level
+    chain: tuple[tuple[float, float, int, int, int], ...] = ()  # (lo, scale, bins, k, shift)
     lo: float = 0.0
     scale: float = 1.0
     bins: int = HISTOGRAM_BINS
     exact: bool = False  # every bin holds one value: lo + k
+    shift: int = 0
 
     def child(self, k: int) -> _Window:
         return _Window(
-            chain=self.chain + ((self.lo, self.scale, self.bins, k),),
-            lo=self.lo + k / self.scale,
+            chain=self.chain + ((self.lo, self.scale, self.bins, k, self.shift),),
+            lo=self.lo + math.ldexp(k / self.scale, -self.shift),
             scale=self.scale * HISTOGRAM_BINS,
+            shift=self.shift,
         )
 
 
@@ -353,12 +357,21 @@ def _root_window(dtype: np.dtype, low: float, high: float) -> _Window:
         span = float(np.finfo(np.float64).max)
     if span == 0:
         return _Window(lo=low, scale=1.0, bins=1)
-    return _Window(lo=low, scale=HISTOGRAM_BINS / span)
+    # every level multiplies the scale by HISTOGRAM_BINS: below this span it would overflow
+    shift = -math.frexp(span)[1] if span < _LEAST_UNSHIFTED_SPAN else 0
+    return _Window(lo=low, scale=HISTOGRAM_BINS / math.ldexp(span, shift), shift=shift)
 
 
-def _bin(values: np.ndarray, lo: float, scale: float, bins: int) -> np.ndarray:
+#: Spans of values below this are binned at a power-of-two magnification (``_Window.shift``).
+_LEAST_UNSHIFTED_SPAN = 2.0**-512
+
+
+def _bin(values: np.ndarray, lo: float, scale: float, bins: int, shift: int = 0) -> np.ndarray:
     with np.errstate(over="ignore"):  # float64 extremes: inf lands in the last bin
-        index = np.floor((values - lo) * scale)
+        offset = values - lo
+        if shift:
+            offset = np.ldexp(offset, shift)
+        index = np.floor(offset * scale)
     np.clip(index, 0, bins - 1, out=index)
     return index.astype(np.intp)
 
@@ -437,12 +450,12 @@ def _scan_block(block: np.ndarray, plan: tuple) -> list:
                     slab.append((0, math.inf, -math.inf))
                 continue
             inside = None
-            for lo, scale, bins, k in window.chain:
-                match = _bin(as_float, lo, scale, bins) == k
+            for lo, scale, bins, k, shift in window.chain:
+                match = _bin(as_float, lo, scale, bins, shift) == k
                 inside = match if inside is None else inside & match
             if mode == "hist":
                 values = as_float if inside is None else as_float[inside]
-                index = _bin(values, window.lo, window.scale, window.bins)
+                index = _bin(values, window.lo, window.scale, window.bins, window.shift)
                 slab.append(np.bincount(index, minlength=window.bins))
             else:
                 values = part if inside is None else part[inside]

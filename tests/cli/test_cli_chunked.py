@@ -372,6 +372,33 @@ def test_streamed_percentiles_equal_numpy_bit_for_bit(monkeypatch, dtype, gather
         assert lazy_images.percentiles(lazy, (0.5, 99.5)) == expected
 
 
+@pytest.mark.parametrize(
+    "offset, span",
+    [(0.0, 1e-310), (0.0, 5e-320), (-3e-308, 1e-308), (1e-300, 1e-300), (1.0, 1e-15), (0.0, 1e-250)],
+)
+@pytest.mark.parametrize("gather_limit", [1 << 18, 3])
+def test_streamed_percentiles_of_values_closer_than_normal_floats(
+    monkeypatch, offset, span, gather_limit
+):
+    """Subnormal values, and spans so small that the histograms' scale would overflow
+    float64 after a few levels: still numpy's percentiles, bit for bit."""
+    monkeypatch.setattr(lazy_images, "GATHER_LIMIT", gather_limit)
+    rng = np.random.default_rng(11)
+    values = (offset + rng.random((1, 997)) * span).astype(np.float64)
+    values[0, :300] = values[0, 0]  # a mass of equal values
+    lazy = da.from_array(values, chunks=(1, 250))
+    expected = [float(v) for v in np.percentile(values, (0.5, 99.5))]
+    assert lazy_images.percentiles(lazy, (0.5, 99.5)) == expected
+
+
+def test_a_lazy_image_of_subnormal_values_renders_as_in_memory():
+    from napari_labyrinth import labyrinth
+
+    values = np.random.default_rng(0).random((2, 40, 40)) * 1e-310
+    lazy = da.from_array(values, chunks=(1, 40, 40))
+    np.testing.assert_array_equal(np.asarray(labyrinth(lazy, seed=1)), labyrinth(values, seed=1))
+
+
 def test_default_tone_limits_match_the_api(monkeypatch):
     from napari_labyrinth.core.tone_scale import resolve_tone_scale
 
