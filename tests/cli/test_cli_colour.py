@@ -101,3 +101,16 @@ def test_a_colour_store_renders_lazily_as_in_memory(tmp_path, capsys):
         zarr.open_array(str(tmp_path / "channels.zarr"))[...],
         labyrinth(image, channel_axis=-1, colour="channels", **API_OPTIONS),
     )
+
+
+def test_the_provenance_record_names_the_colour_mode_the_default_chose(tmp_path):
+    """Reproducible even if the default changed: the record says "luminance", not nothing."""
+    from napari_labyrinth.io import read_provenance
+
+    write_image(tmp_path / "rgb.png", colour_image())
+    write_image(tmp_path / "grey.png", colour_image()[..., 0])
+    for name in ("rgb", "grey"):
+        assert render(tmp_path / f"{name}.png", "-o", tmp_path / f"{name}_out.png", *OPTIONS) == 0
+    assert read_provenance(tmp_path / "rgb_out.png")["arguments"]["colour"] == "luminance"
+    assert "colour" not in read_provenance(tmp_path / "grey_out.png")["arguments"]
+    assert main(["reproduce", str(tmp_path / "rgb_out.png")]) == EXIT_OK

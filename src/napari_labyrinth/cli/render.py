@@ -457,6 +457,7 @@ def provenance_record(
     path: Path, image, mode: str, kwargs: dict[str, Any], tone_limits
 ) -> dict[str, Any]:
     """The provenance record of the rendering of ``path`` with ``kwargs`` (API keywords)."""
+    from ..core.colour import resolve_colour
     from ..core.parameters import PARAMETERS
     from ..core.presets import DEFAULT_PRESET, resolve_parameters
     from ..provenance import call_arguments, file_checksum, input_record, make_record
@@ -468,13 +469,16 @@ def provenance_record(
     sweep = (kwargs["parameter"], kwargs["values"]) if mode == "sweep" else None
     if tone_limits is None:
         tone_limits = kwargs.get("tone_limits")
+    channel_axis, colour = kwargs.get("channel_axis"), kwargs.get("colour")
+    if channel_axis is not None:  # the colour mode the default chose, written down
+        colour = resolve_colour(colour, image.shape, channel_axis)
     arguments = call_arguments(
         preset=preset,
         parameters=parameters,
         seed=seed,
         tone_limits=tone_limits,
-        channel_axis=kwargs.get("channel_axis"),
-        colour=kwargs.get("colour"),
+        channel_axis=channel_axis,
+        colour=colour,
         alpha=kwargs.get("alpha"),
         sweep=sweep,
     )
