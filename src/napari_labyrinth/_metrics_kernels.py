@@ -1140,6 +1140,174 @@ def orientation_band(plane, scale, weights, mode, needed, out0, out1, out2, out3
         _tensor_tile(plane, scale, weights, mode, needed, k, x0, x1, y0, y1, out0, out1, out2, out3)
 
 
+#: Variance (original pixels squared) of the 1-2-1 filter on the doubled grid that
+#: :func:`contour_band` applies before sampling the products on the original grid.
+PREFILTER_VARIANCE = 0.125
+
+
+def contour_sigma(sigma: float) -> float:
+    """The Gaussian sigma (original pixels) that :func:`contour_band` applies after its
+    prefilter: the two together have the variance of a Gaussian of ``sigma``."""
+    return float(np.sqrt(sigma * sigma - PREFILTER_VARIANCE))
+
+
+@njit(cache=True, nogil=True)
+def _doubled_products(plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work,
+                      products_e, products_o):
+    """The tensor products of doubled row ``i`` (see :func:`_tensor_products`); the doubled
+    rows it reads are kept in slots ``i % 3`` of ``rows_e``/``rows_o`` (slot 3: zeros)."""
+    doubled_height = 2 * plane.shape[0]
+    for k in range(3):
+        r = i - 1 + k
+        if r < 0 or r >= doubled_height:
+            slots[k] = 3
+            continue
+        slot = r % 3
+        if row_of_slot[slot] != r:
+            _doubled_row(plane, scale, r, origin, line, rows_e[slot], rows_o[slot])
+            row_of_slot[slot] = r
+        slots[k] = slot
+    _tensor_products(
+        rows_e[slots[0]],
+        rows_o[slots[0]],
+        rows_e[slots[1]],
+        rows_o[slots[1]],
+        rows_e[slots[2]],
+        rows_o[slots[2]],
+        origin,
+        plane.shape[1],
+        work,
+        products_e,
+        products_o,
+    )
+
+
+@njit(cache=True, nogil=True)
+def _prefilter_columns(products_e, products_o, weight, out):
+    """``out[c, k] += weight * (P_o[k - 1] + 2 P_e[k] + P_o[k])`` for k in [1, n): the
+    doubled row's 1-2-1 filter across columns, sampled at the even (original) columns."""
+    n = out.shape[1]
+    for c in range(3):
+        even = products_e[c]
+        odd = products_o[c]
+        target = out[c]
+        for k in range(1, n):
+            target[k] += weight * ((odd[k - 1] + odd[k]) + 2.0 * even[k])
+
+
+@njit(cache=True, nogil=True)
+def _add_doubled(plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work,
+                 products_e, products_o, weight, out):
+    """``out += weight *`` doubled row ``i``'s products filtered 1-2-1 across columns (zero
+    outside the doubled plane)."""
+    if i < 0 or i >= 2 * plane.shape[0]:
+        return
+    _doubled_products(plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work,
+                      products_e, products_o)
+    _prefilter_columns(products_e, products_o, weight, out)
+
+
+@njit(cache=True, nogil=True)
+def _contour_tile(plane, scale, weights, needed, tile_index, x0, x1, y0, y1, out0, out1, out2,
+                  out3):
+    """:func:`contour_band` on the output columns ``[x0, x1)`` (column tile ``tile_index``)."""
+    height, width = plane.shape
+    doubled_height = 2 * height
+    radius = weights.shape[0] - 1
+    ring_rows = 2 * radius + 1
+    zero_slot = ring_rows
+    pad = radius + 2
+    tile = x1 - x0
+    origin = x0 - pad  # phase column of local index 0
+    n = tile + 2 * pad
+    rows_e = np.zeros((4, n), dtype=np.float32)
+    rows_o = np.zeros((4, n), dtype=np.float32)
+    row_of_slot = np.full(3, -1, dtype=np.int64)
+    line = np.empty(n + 2, dtype=np.float32)
+    slots = np.empty(3, dtype=np.int64)
+    work = np.zeros((8, n), dtype=np.float32)
+    products_e = np.zeros((3, n), dtype=np.float32)
+    products_o = np.zeros((3, n), dtype=np.float32)
+    sampled = np.zeros((3, n), dtype=np.float32)  # the products filtered 1-2-1 both ways
+    ring = np.zeros((3, ring_rows + 1, tile), dtype=np.float32)
+    tensor = np.empty((3, tile), dtype=np.float32)
+    lower = np.empty(radius + 1, dtype=np.int64)
+    upper = np.empty(radius + 1, dtype=np.int64)
+    quarter = np.float32(0.0625)  # (1/4) * (1/4): the two 1-2-1 filters' norms
+    below = np.zeros((3, n), dtype=np.float32)
+    below_row = -3
+    next_row = max(0, y0 - radius)
+    for y in range(y0, y1):
+        if not needed[y, tile_index]:
+            continue
+        next_row = max(next_row, y - radius)
+        # row ``height`` (outside) holds a quarter of doubled row 2 height - 1, as column
+        # ``width`` holds a quarter of doubled column 2 width - 1 (see _prefilter_columns)
+        last_row = min(y + radius, height)
+        while next_row <= last_row:
+            row = next_row
+            # doubled rows 2 row - 1, 2 row, 2 row + 1 with weights 1, 2, 1; the first is
+            # the last of the row before, kept in ``below`` when that row was just computed
+            if below_row == 2 * row - 1:
+                sampled[:] = below
+            else:
+                sampled[:] = 0.0
+                _add_doubled(plane, scale, 2 * row - 1, origin, rows_e, rows_o, row_of_slot,
+                             line, slots, work, products_e, products_o, quarter, sampled)
+            _add_doubled(plane, scale, 2 * row, origin, rows_e, rows_o, row_of_slot, line,
+                         slots, work, products_e, products_o, 2 * quarter, sampled)
+            below[:] = 0.0
+            _add_doubled(plane, scale, 2 * row + 1, origin, rows_e, rows_o, row_of_slot, line,
+                         slots, work, products_e, products_o, quarter, below)
+            below_row = 2 * row + 1
+            for c in range(3):
+                for k in range(n):
+                    sampled[c, k] += below[c, k]
+            for c in range(3):
+                # output column x0 + i is local index pad + i: the line starts ``radius`` before
+                _gauss_line(sampled[c, pad - radius :], radius, weights, ring[c, row % ring_rows])
+            next_row += 1
+        for j in range(radius + 1):
+            r = y - j
+            lower[j] = r % ring_rows if r >= 0 else zero_slot
+            r = y + j
+            upper[j] = r % ring_rows if r <= height else zero_slot
+        for c in range(3):
+            _gauss_rows(ring[c], lower, upper, y % ring_rows, weights, tensor[c])
+        _derive(
+            tensor[0],
+            tensor[1],
+            tensor[2],
+            out0[y, x0:x1],
+            out1[y, x0:x1],
+            out2[y, x0:x1],
+            out3[y, x0:x1],
+        )
+
+
+@njit(cache=True, nogil=True)
+def contour_band(plane, scale, weights, needed, out0, out1, out2, out3, y0, y1):
+    """The contours' structure tensor (``TENSOR_DERIVED`` maps) on rows ``[y0, y1)``, decimated.
+
+    The Sobel products of ``zoom(plane, 2)`` (as :func:`orientation_band`
+    computes them, zero outside the plane) are filtered with the 1-2-1
+    kernel / 4 along both axes of the doubled grid and sampled at its even
+    pixels (the original grid); a Gaussian of ``weights`` (original pixels,
+    zero padding) follows. Filter and Gaussian have the variance of the
+    doubled-grid Gaussian of :func:`orientation_band` when ``weights`` are
+    those of :func:`contour_sigma`; the kernels differ by about 1 % of a
+    weight (linear interpolation of the Gaussian between even taps), and
+    the Gaussian has half the taps, on a quarter of the pixels. ``needed``
+    and the outputs as in :func:`orientation_band`.
+    """
+    width = plane.shape[1]
+    count = needed.shape[1]
+    for k in range(count):
+        x0 = (k * width) // count
+        x1 = ((k + 1) * width) // count
+        _contour_tile(plane, scale, weights, needed, k, x0, x1, y0, y1, out0, out1, out2, out3)
+
+
 def tensor_tiles(width: int, radius: int) -> int:
     """Column tiles of :func:`orientation_band` when only some pixels are asked for.
 

@@ -65,6 +65,11 @@ METRICS = (
 # (1, -1), (1, 1); see _metrics_kernels.FAMILIES).
 _DIRECTIONS = ((0, 1), (1, 0), (1, 1), (1, -1))
 
+#: Least contour sigma (pixels) whose structure tensor is computed on the original grid
+#: after a 1-2-1 prefilter of the doubled grid (``_metrics_kernels.contour_band``); below,
+#: the prefilter's variance would be too large a part of the window's.
+_DECIMATED_CONTOURS = 1.0
+
 #: Rows per band below which a plane is not split into more bands.
 _MIN_BAND_ROWS = 64
 #: Bands of rows per thread: more bands than threads balance the threads' work.
@@ -393,7 +398,11 @@ class _Maps:
         once, and only the parts some walls need.
         """
         kernels = _kernels()
-        weights = _weights(2 * sigma, np.float32)
+        decimated = sigma >= _DECIMATED_CONTOURS
+        if decimated:
+            weights = _weights(kernels.contour_sigma(sigma), np.float32)
+        else:
+            weights = _weights(2 * sigma, np.float32)
         with self._lock:
             key = ("contours", float(sigma))
             if key not in self._values:
@@ -407,9 +416,12 @@ class _Maps:
             needed &= ~done
             if needed.any():
                 scale = _float32_scale(self._fine().largest_tone)
-                _orientation_maps(
-                    self.plane, scale, sigma, kernels.TENSOR_DERIVED, self.workers, needed, maps
-                )
+                if decimated:
+                    self._bands(kernels.contour_band, self.plane, scale, weights, needed, *maps)
+                else:
+                    _orientation_maps(
+                        self.plane, scale, sigma, kernels.TENSOR_DERIVED, self.workers, needed, maps
+                    )
                 done |= needed
             return maps
 
