@@ -361,3 +361,36 @@ def test_the_decimated_contour_tensor_is_close_to_the_doubled_grids(monkeypatch)
     oriented = exact[0] > 1e-2 * largest
     cosine = decimated[2] * exact[2] + decimated[3] * exact[3]  # cos of twice the difference
     assert np.all(cosine[oriented] > np.cos(np.radians(4)))
+
+
+@pytest.mark.parametrize("workers", [1, 3])
+def test_an_originals_energy_without_h_is_the_energy_from_h(cases, monkeypatch, workers):
+    """An original's maps make the energy from rows of h they do not keep: the floats of
+    h's map smoothed (energy, sums, finiteness, largest tone), bit for bit, in any bands."""
+    monkeypatch.setattr(metrics, "_MIN_BAND_ROWS", 5)
+    rng = np.random.default_rng(4)
+    holes = cases["labyrinth"].copy()
+    holes[7, 9] = np.nan
+    holes[150, 3] = np.inf
+    planes = [
+        cases["labyrinth"],
+        cases["original"] * 1e30,
+        cases["noise"] * 1e-30,
+        holes,
+        rng.normal(0, 1e200, (40, 23)),  # h**2 overflows
+        rng.integers(0, 256, (3, 3)).astype(float),
+        rng.integers(0, 256, (5, 7)).astype(float),
+        rng.integers(0, 256, (20, 4)).astype(float),
+    ]
+    for plane in planes:
+        original = metrics._Maps(plane.copy(), workers=workers, walls=False)
+        whole = metrics._Maps(plane.copy(), workers=workers)
+        energy, total = original.energy()
+        expected_energy, expected_total = whole.energy()
+        np.testing.assert_array_equal(energy, expected_energy)
+        assert total == expected_total or (math.isnan(total) and math.isnan(expected_total))
+        summary, full = original._fine(), whole._fine()
+        assert summary.fine is None and "fine" not in original._values
+        for field in ("total", "largest_square", "lag_scale", "finite", "largest_tone"):
+            a, b = getattr(summary, field), getattr(full, field)
+            assert a == b or (math.isnan(a) and math.isnan(b)), field

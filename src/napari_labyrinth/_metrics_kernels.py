@@ -259,6 +259,75 @@ def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
 
 
 @njit(cache=True, nogil=True)
+def _fine_row(plane, weights, y, lower, upper, column, ext, smooth, out):
+    """Row y of ``h = plane - G * plane`` into ``out``, as :func:`fine_scale_band` computes it."""
+    height, width = plane.shape
+    radius = weights.shape[0] - 1
+    for j in range(radius + 1):
+        lower[j] = _reflect(y - j, height)
+        upper[j] = _reflect(y + j, height)
+    _gauss_rows(plane, lower, upper, y, weights, column)
+    _extend(column, radius, ext)
+    _gauss_line(ext, radius, weights, smooth)
+    row = plane[y]
+    for x in range(width):
+        out[x] = row[x] - smooth[x]
+
+
+@njit(cache=True, nogil=True)
+def energy_band(plane, fine_weights, weights, energy, sums, y0, y1):
+    """The energy ``G * h**2`` of rows ``[y0, y1)`` without keeping ``h`` (an original's maps).
+
+    ``h`` is made row by row (:func:`fine_scale_band`'s operations) into a
+    ring of ``h**2`` rows that the Gaussian of ``weights`` reads (scipy's
+    order, ``reflect``, as :func:`smooth_band`): the same floats as
+    ``fine_scale_band`` then ``smooth_band``'s ``MODE_ENERGY``. ``sums[y]``
+    gets :func:`fine_scale_band`'s four sums of row y, then the sum of
+    ``energy[y]``.
+    """
+    height, width = plane.shape
+    fine_radius = fine_weights.shape[0] - 1
+    radius = weights.shape[0] - 1
+    ring_rows = 2 * radius + 1
+    squares = np.empty((ring_rows, width))
+    virtual_row = np.full(ring_rows, -(2 * height + ring_rows), dtype=np.int64)
+    column = np.empty(width)
+    fine_ext = np.empty(width + 2 * fine_radius)
+    smooth = np.empty(width)
+    fine = np.empty(width)
+    ext = np.empty(width + 2 * radius)
+    lower = np.empty(max(radius, fine_radius) + 1, dtype=np.int64)
+    upper = np.empty(max(radius, fine_radius) + 1, dtype=np.int64)
+    for y in range(y0, y1):
+        for v in range(y - radius, y + radius + 1):  # the rows the window reads, reflected
+            slot = v % ring_rows
+            if virtual_row[slot] == v:
+                continue
+            row = _reflect(v, height)
+            _fine_row(plane, fine_weights, row, lower, upper, column, fine_ext, smooth, fine)
+            square = squares[slot]
+            for x in range(width):
+                square[x] = fine[x] * fine[x]
+            virtual_row[slot] = v
+            if v == row and y0 <= row < y1:
+                sums[row, 0] = _sum(square)
+                _, largest, nonfinite = _finite_range(square)
+                sums[row, 1] = max(largest, 0.0)
+                sums[row, 2] = nonfinite
+                tones = plane[row]
+                for x in range(width):
+                    smooth[x] = abs(tones[x])
+                sums[row, 3] = max(_finite_range(smooth)[1], 0.0)
+        for j in range(radius + 1):
+            lower[j] = (y - j) % ring_rows
+            upper[j] = (y + j) % ring_rows
+        _gauss_rows(squares, lower, upper, y % ring_rows, weights, column)
+        _extend(column, radius, ext)
+        _gauss_line(ext, radius, weights, energy[y])
+        sums[y, 4] = _sum(energy[y])
+
+
+@njit(cache=True, nogil=True)
 def _source_row(fine, plane, mode, dy, dx, half, row, s0, s1, out):
     """Row ``row``, columns ``[s0, s1)``, of the map that the wall pass smooths.
 

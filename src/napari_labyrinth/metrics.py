@@ -257,10 +257,48 @@ class _Maps:
 
     def fine(self) -> tuple[np.ndarray, float]:
         """``h = g - G_1 * g`` and ``sum(h**2)``."""
-        fine = self._fine()
+        fine = self._full_fine()
         return fine.fine, fine.total
 
     def _fine(self) -> _Fine:
+        """``h``'s sums, and ``h`` itself unless the maps are an original's (made with
+        ``walls=False``) that no one asked for ``h``: then ``fine`` is None (see
+        :meth:`_original`); :meth:`_full_fine` always has ``h``."""
+        with self._lock:
+            if not self._walls_expected and "fine" not in self._values:
+                return self._original()[0]
+        return self._full_fine()
+
+    def _original(self) -> tuple[_Fine, np.ndarray, float]:
+        """An original's sums of ``h``, energy and the energy's sum, ``h`` never kept whole."""
+
+        def compute():
+            energy = self._empty()
+            sums = self._row_sums(5)
+            self._bands(
+                _kernels().energy_band,
+                self.plane,
+                _weights(1.0),
+                _weights(WINDOW_SIGMA),
+                energy,
+                sums,
+            )
+            largest_square = float(sums[:, 1].max())
+            scale = _float32_scale(math.sqrt(largest_square))
+            fine = _Fine(
+                None,
+                np.empty((1, 1), dtype=np.float32),
+                math.fsum(sums[:, 0]),
+                largest_square,
+                1.0 / scale**2,
+                not sums[:, 2].any(),
+                float(sums[:, 3].max()),
+            )
+            return fine, energy, math.fsum(sums[:, 4])
+
+        return self._get("original", compute)
+
+    def _full_fine(self) -> _Fine:
         def compute():
             fine = self._empty()
             if self._walls_expected:
@@ -296,7 +334,7 @@ class _Maps:
 
     def _lag_plane(self) -> np.ndarray:
         """``h`` times a power of two in float32, for the lag correlations (see :class:`_Fine`)."""
-        fine = self._fine()
+        fine = self._full_fine()
         if fine.fine32.shape == fine.fine.shape:
             return fine.fine32
 
@@ -309,7 +347,7 @@ class _Maps:
     def _smooth(self, mode, energy, flags) -> tuple[list, float]:
         """The kernel's results per band and the sum of the energy."""
         kernels = _kernels()
-        fine = self._fine()
+        fine = self._full_fine()
         lag_plane = self._lag_plane() if mode == kernels.MODE_WALLS else fine.fine32
         sums = self._row_sums(1)
         results = self._bands(
@@ -349,6 +387,8 @@ class _Maps:
             if "walls" in self._values:
                 _, energy, total = self._values["walls"]
                 return energy, total
+            if not self._walls_expected:
+                return self._original()[1:]
 
         def compute():
             energy = self._empty()
@@ -378,7 +418,7 @@ class _Maps:
         """
 
         def compute():
-            fine = self._fine()
+            fine = self._full_fine()
             scale = _float32_scale(math.sqrt(fine.largest_square))
             return _wall_orientation(
                 fine.fine, scale, WINDOW_SIGMA, self.workers, self.walls()[0], self._empty
@@ -442,7 +482,7 @@ class _Maps:
 
 
 class _Fine(NamedTuple):
-    fine: np.ndarray  # h = g - G_1 * g
+    fine: np.ndarray | None  # h = g - G_1 * g (None: not kept, see _Maps._original)
     fine32: np.ndarray  # h * sqrt(1 / lag_scale) in float32 (1 x 1 if not made: _lag_plane)
     total: float  # sum(h**2)
     largest_square: float  # max(h**2) over the finite values
@@ -564,8 +604,8 @@ def texture_added(original, rendered) -> float:
 
 
 def _texture_added(before: _Maps, after: _Maps) -> float:
-    energy_before = before.fine()[1] / before.plane.size
-    energy_after = after.fine()[1] / after.plane.size
+    energy_before = before._fine().total / before.plane.size
+    energy_after = after._fine().total / after.plane.size
     if energy_before == 0.0:
         return math.inf if energy_after > 0 else 1.0
     return energy_after / energy_before
