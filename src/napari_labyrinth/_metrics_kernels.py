@@ -933,8 +933,10 @@ def _doubled_row(plane, scale, i, origin, line, even, odd):
     line[0] = (0.75 * near[left] + 0.25 * far[left]) * scale
     line[hi - lo + 1] = (0.75 * near[right] + 0.25 * far[right]) * scale
     count = j1 - j0
-    _interpolate(line[:count], line[1 : count + 1], 0.25, 0.75, even[j0:j1])
-    _interpolate(line[1 : count + 1], line[2 : count + 2], 0.75, 0.25, odd[j0:j1])
+    quarter = np.float32(0.25)
+    three_quarters = np.float32(0.75)
+    _interpolate(line[:count], line[1 : count + 1], quarter, three_quarters, even[j0:j1])
+    _interpolate(line[1 : count + 1], line[2 : count + 2], three_quarters, quarter, odd[j0:j1])
 
 
 @njit(cache=True, nogil=True)
@@ -959,13 +961,14 @@ def _tensor_products(
     """
     n = up_e.shape[0]
     dv_e, dv_o, sv_e, sv_o = work[0], work[1], work[2], work[3]
+    two = np.float32(2.0)
     dr_e, dr_o, dc_e, dc_o = work[4], work[5], work[6], work[7]
     for k in range(n):
         dv_e[k] = down_e[k] - up_e[k]
         dv_o[k] = down_o[k] - up_o[k]
     for k in range(n):
-        sv_e[k] = up_e[k] + 2.0 * mid_e[k] + down_e[k]
-        sv_o[k] = up_o[k] + 2.0 * mid_o[k] + down_o[k]
+        sv_e[k] = up_e[k] + two * mid_e[k] + down_e[k]
+        sv_o[k] = up_o[k] + two * mid_o[k] + down_o[k]
     m = n - 2
     _sobel_phase(dv_o[: n - 2], dv_e[1 : n - 1], dv_o[1 : n - 1], dr_e[1 : n - 1])
     _sobel_phase(dv_e[1 : n - 1], dv_o[1 : n - 1], dv_e[2:n], dr_o[1 : n - 1])
@@ -1001,8 +1004,9 @@ def _tensor_products(
 
 @njit(cache=True, nogil=True)
 def _sobel_phase(left, centre, right, out):
+    two = np.float32(2.0)  # float32 arithmetic: a float64 constant would widen the loop
     for x in range(centre.shape[0]):
-        out[x] = left[x] + 2.0 * centre[x] + right[x]
+        out[x] = left[x] + two * centre[x] + right[x]
 
 
 @njit(cache=True, nogil=True)
@@ -1256,12 +1260,13 @@ def _prefilter_columns(products_e, products_o, weight, out):
     """``out[c, k] += weight * (P_o[k - 1] + 2 P_e[k] + P_o[k])`` for k in [1, n): the
     doubled row's 1-2-1 filter across columns, sampled at the even (original) columns."""
     n = out.shape[1]
+    two = np.float32(2.0)
     for c in range(3):
         even = products_e[c]
         odd = products_o[c]
         target = out[c]
         for k in range(1, n):
-            target[k] += weight * ((odd[k - 1] + odd[k]) + 2.0 * even[k])
+            target[k] += weight * ((odd[k - 1] + odd[k]) + two * even[k])
 
 
 @njit(cache=True, nogil=True)
@@ -1324,7 +1329,7 @@ def _contour_tile(plane, scale, weights, needed, tile_index, x0, x1, y0, y1, out
                 _add_doubled(plane, scale, 2 * row - 1, origin, rows_e, rows_o, row_of_slot,
                              line, slots, work, products_e, products_o, quarter, sampled)
             _add_doubled(plane, scale, 2 * row, origin, rows_e, rows_o, row_of_slot, line,
-                         slots, work, products_e, products_o, 2 * quarter, sampled)
+                         slots, work, products_e, products_o, quarter + quarter, sampled)
             below[:] = 0.0
             _add_doubled(plane, scale, 2 * row + 1, origin, rows_e, rows_o, row_of_slot, line,
                          slots, work, products_e, products_o, quarter, below)
