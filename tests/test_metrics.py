@@ -172,7 +172,7 @@ def _count_calls(monkeypatch, *names):
 
 def _count_tensors(monkeypatch):
     """The calls of both structure-tensor kernels (the walls' and the contours'), in one list."""
-    return _count_calls(monkeypatch, "orientation_band", "contour_band")
+    return _count_calls(monkeypatch, "orientation_band", "decimated_tensor_band")
 
 
 def test_stopping_between_metrics_skips_the_work_of_the_others(cases, monkeypatch):
@@ -223,11 +223,11 @@ def test_the_originals_contours_are_computed_where_walls_need_them_once(monkeypa
     walls[10:14, 30:40] = True  # tile 0
     walls[70, 1200] = True  # tile 2
     sigma = metrics.CONTOUR_SIGMA
-    radius = metrics._weights(_metrics_kernels.contour_sigma(sigma)).shape[0] - 1
+    radius = metrics._weights(_metrics_kernels.decimated_sigma(sigma)).shape[0] - 1
     assert _metrics_kernels.tensor_tiles(width, radius) == 3
     everywhere = metrics._Maps(original.copy(), workers=1).contours(sigma, np.ones_like(walls))
     maps = metrics._Maps(original.copy(), workers=1)
-    calls = _count_calls(monkeypatch, "contour_band")
+    calls = _count_calls(monkeypatch, "decimated_tensor_band")
     partial = maps.contours(sigma, walls)
     assert len(calls) == 1
     needed = calls[0][3]  # (rows, tiles) computed
@@ -353,7 +353,7 @@ def test_the_decimated_contour_tensor_is_close_to_the_doubled_grids(monkeypatch)
     everywhere = np.ones(original.shape, dtype=bool)
     sigma = metrics.CONTOUR_SIGMA
     decimated = metrics._Maps(original.copy(), workers=1).contours(sigma, everywhere)
-    monkeypatch.setattr(metrics, "_DECIMATED_CONTOURS", math.inf)  # the doubled grid's
+    monkeypatch.setattr(metrics, "_DECIMATED_SIGMA", math.inf)  # the doubled grid's
     exact = metrics._Maps(original.copy(), workers=1).contours(sigma, everywhere)
     largest = exact[0].max()
     assert np.abs(decimated[0] - exact[0]).max() < 1e-2 * largest

@@ -18,7 +18,11 @@ Precision, chosen by what each result feeds:
   leaves open are recomputed in float64 in scipy's order
   (:func:`smooth_band`). The wall map is the float64 one.
 - The structure tensors (orientations) are float32: they only feed weighted
-  means, where float32 rounding moves the result by about 1e-8.
+  means, where float32 rounding moves the result by about 1e-8. The walls'
+  and the contours' tensors are decimated (:func:`decimated_tensor_band`):
+  the doubled grid's products filtered 1-2-1 and smoothed on the original
+  grid, a window within a few per cent of the doubled grid's Gaussian at a
+  quarter of its pixels; :func:`orientation_band` is the doubled grid's.
 """
 
 from __future__ import annotations
@@ -1214,12 +1218,12 @@ def orientation_band(plane, scale, weights, mode, needed, out0, out1, out2, out3
 
 
 #: Variance (original pixels squared) of the 1-2-1 filter on the doubled grid that
-#: :func:`contour_band` applies before sampling the products on the original grid.
+#: :func:`decimated_tensor_band` applies before sampling the products on the original grid.
 PREFILTER_VARIANCE = 0.125
 
 
-def contour_sigma(sigma: float) -> float:
-    """The Gaussian sigma (original pixels) that :func:`contour_band` applies after its
+def decimated_sigma(sigma: float) -> float:
+    """The Gaussian sigma (original pixels) that :func:`decimated_tensor_band` applies after its
     prefilter: the two together have the variance of a Gaussian of ``sigma``."""
     return float(np.sqrt(sigma * sigma - PREFILTER_VARIANCE))
 
@@ -1282,9 +1286,9 @@ def _add_doubled(plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slo
 
 
 @njit(cache=True, nogil=True)
-def _contour_tile(plane, scale, weights, needed, tile_index, x0, x1, y0, y1, out0, out1, out2,
+def _decimated_tile(plane, scale, weights, needed, tile_index, x0, x1, y0, y1, out0, out1, out2,
                   out3):
-    """:func:`contour_band` on the output columns ``[x0, x1)`` (column tile ``tile_index``)."""
+    """:func:`decimated_tensor_band` on the output columns ``[x0, x1)`` (column tile ``tile_index``)."""
     height, width = plane.shape
     doubled_height = 2 * height
     radius = weights.shape[0] - 1
@@ -1360,7 +1364,7 @@ def _contour_tile(plane, scale, weights, needed, tile_index, x0, x1, y0, y1, out
 
 
 @njit(cache=True, nogil=True)
-def contour_band(plane, scale, weights, needed, out0, out1, out2, out3, y0, y1):
+def decimated_tensor_band(plane, scale, weights, needed, out0, out1, out2, out3, y0, y1):
     """The contours' structure tensor (``TENSOR_DERIVED`` maps) on rows ``[y0, y1)``, decimated.
 
     The Sobel products of ``zoom(plane, 2)`` (as :func:`orientation_band`
@@ -1369,17 +1373,18 @@ def contour_band(plane, scale, weights, needed, out0, out1, out2, out3, y0, y1):
     pixels (the original grid); a Gaussian of ``weights`` (original pixels,
     zero padding) follows. Filter and Gaussian have the variance of the
     doubled-grid Gaussian of :func:`orientation_band` when ``weights`` are
-    those of :func:`contour_sigma`; the kernels differ by about 1 % of a
-    weight (linear interpolation of the Gaussian between even taps), and
-    the Gaussian has half the taps, on a quarter of the pixels. ``needed``
-    and the outputs as in :func:`orientation_band`.
+    those of :func:`decimated_sigma`; the kernels differ by a few per cent
+    of a weight (about 1 % at sigma 4, 3 % at sigma 2: the doubled grid's
+    Gaussian linearly interpolated between its even taps), and the
+    Gaussian has half the taps, on a quarter of the pixels. ``needed`` and
+    the outputs as in :func:`orientation_band` (``TENSOR_DERIVED``).
     """
     width = plane.shape[1]
     count = needed.shape[1]
     for k in range(count):
         x0 = (k * width) // count
         x1 = ((k + 1) * width) // count
-        _contour_tile(plane, scale, weights, needed, k, x0, x1, y0, y1, out0, out1, out2, out3)
+        _decimated_tile(plane, scale, weights, needed, k, x0, x1, y0, y1, out0, out1, out2, out3)
 
 
 def tensor_tiles(width: int, radius: int) -> int:
