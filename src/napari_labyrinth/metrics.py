@@ -417,14 +417,14 @@ class _Maps:
     def wall_orientation(self) -> tuple[np.ndarray, ...]:
         """Strength, coherence * strength, cos and sin of twice the angle, of ``h``, on the walls.
 
-        The strengths are those of ``h`` times a power of two (ratios of them are exact).
+        The strengths are those of ``h`` times a power of two (ratios of them are exact):
+        the tensor reads ``h``'s float32 copy of the wall pass (:meth:`_lag_plane`).
         """
 
         def compute():
-            fine = self._full_fine()
-            scale = _float32_scale(math.sqrt(fine.largest_square))
+            walls = self.walls()[0]
             return _wall_orientation(
-                fine.fine, scale, WINDOW_SIGMA, self.workers, self.walls()[0], self._empty
+                self._lag_plane(), 1.0, WINDOW_SIGMA, self.workers, walls, self._empty
             )
 
         return self._get("wall_orientation", compute)
