@@ -365,8 +365,9 @@ def test_the_decimated_contour_tensor_is_close_to_the_doubled_grids(monkeypatch)
 
 @pytest.mark.parametrize("workers", [1, 3])
 def test_an_originals_energy_without_h_is_the_energy_from_h(cases, monkeypatch, workers):
-    """An original's maps make the energy from rows of h they do not keep: the floats of
-    h's map smoothed (energy, sums, finiteness, largest tone), bit for bit, in any bands."""
+    """An original's maps make the energy from rows of h they do not keep, and the Sobel
+    edges in the same pass: the floats of h's map smoothed (energy, sums, finiteness,
+    largest tone) and of the Sobel kernel alone, bit for bit, in any bands."""
     monkeypatch.setattr(metrics, "_MIN_BAND_ROWS", 5)
     rng = np.random.default_rng(4)
     holes = cases["labyrinth"].copy()
@@ -389,6 +390,8 @@ def test_an_originals_energy_without_h_is_the_energy_from_h(cases, monkeypatch, 
         expected_energy, expected_total = whole.energy()
         np.testing.assert_array_equal(energy, expected_energy)
         assert total == expected_total or (math.isnan(total) and math.isnan(expected_total))
+        for map_, expected in zip(original.edges(), whole.edges()):
+            np.testing.assert_array_equal(map_, expected)
         summary, full = original._fine(), whole._fine()
         assert summary.fine is None and "fine" not in original._values
         for field in ("total", "largest_square", "lag_scale", "finite", "largest_tone"):

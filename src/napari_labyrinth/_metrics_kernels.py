@@ -279,15 +279,16 @@ def _fine_row(plane, weights, y, lower, upper, column, ext, smooth, out):
 
 
 @njit(cache=True, nogil=True)
-def energy_band(plane, fine_weights, weights, energy, sums, y0, y1):
-    """The energy ``G * h**2`` of rows ``[y0, y1)`` without keeping ``h`` (an original's maps).
+def energy_band(plane, fine_weights, weights, energy, edges, sums, y0, y1):
+    """The energy ``G * h**2`` of rows ``[y0, y1)`` without keeping ``h``, and the Sobel
+    magnitude ``edges`` (:func:`sobel_band`): an original's maps in one pass.
 
     ``h`` is made row by row (:func:`fine_scale_band`'s operations) into a
     ring of ``h**2`` rows that the Gaussian of ``weights`` reads (scipy's
     order, ``reflect``, as :func:`smooth_band`): the same floats as
     ``fine_scale_band`` then ``smooth_band``'s ``MODE_ENERGY``. ``sums[y]``
-    gets :func:`fine_scale_band`'s four sums of row y, then the sum of
-    ``energy[y]``.
+    gets :func:`fine_scale_band`'s four sums of row y, the sum of
+    ``energy[y]``, then :func:`sobel_band`'s three sums of ``edges[y]``.
     """
     height, width = plane.shape
     fine_radius = fine_weights.shape[0] - 1
@@ -302,7 +303,9 @@ def energy_band(plane, fine_weights, weights, energy, sums, y0, y1):
     ext = np.empty(width + 2 * radius)
     lower = np.empty(max(radius, fine_radius) + 1, dtype=np.int64)
     upper = np.empty(max(radius, fine_radius) + 1, dtype=np.int64)
+    padded = np.empty((3, width + 2))
     for y in range(y0, y1):
+        _sobel_row(plane, y, padded, column, smooth, edges[y], sums[y, 5:])
         for v in range(y - radius, y + radius + 1):  # the rows the window reads, reflected
             slot = v % ring_rows
             if virtual_row[slot] == v:
@@ -1441,27 +1444,33 @@ def tiles_with(mask, needed, y0, y1):
 @njit(cache=True, nogil=True)
 def sobel_band(plane, out, sums, y0, y1):
     """``skimage.filters.sobel`` (``reflect``) on rows ``[y0, y1)``; ``sums[y]``: min, max, sum."""
-    height, width = plane.shape
-    root2 = np.sqrt(2.0)
+    width = plane.shape[1]
     padded = np.empty((3, width + 2))  # rows y - 1, y, y + 1 with one reflected column a side
     rows = np.empty(width)
     columns = np.empty(width)
     for y in range(y0, y1):
-        for k in range(3):
-            source = plane[_reflect(y - 1 + k, height)]
-            line = padded[k]
-            for x in range(width):
-                line[x + 1] = source[x]
-            line[0] = source[_reflect(-1, width)]
-            line[width + 1] = source[_reflect(width, width)]
-        _sobel_rows(padded[0], padded[1], padded[2], rows, columns)
-        row = out[y]
+        _sobel_row(plane, y, padded, rows, columns, out[y], sums[y])
+
+
+@njit(cache=True, nogil=True)
+def _sobel_row(plane, y, padded, rows, columns, row, sums):
+    """Row y of :func:`sobel_band` into ``row``; ``sums[0:3]``: its min, max and sum."""
+    height, width = plane.shape
+    root2 = np.sqrt(2.0)
+    for k in range(3):
+        source = plane[_reflect(y - 1 + k, height)]
+        line = padded[k]
         for x in range(width):
-            row[x] = np.sqrt(rows[x] * rows[x] + columns[x] * columns[x]) / root2
-        low, high, _ = _finite_range(row)
-        sums[y, 0] = low
-        sums[y, 1] = high
-        sums[y, 2] = _sum(row)
+            line[x + 1] = source[x]
+        line[0] = source[_reflect(-1, width)]
+        line[width + 1] = source[_reflect(width, width)]
+    _sobel_rows(padded[0], padded[1], padded[2], rows, columns)
+    for x in range(width):
+        row[x] = np.sqrt(rows[x] * rows[x] + columns[x] * columns[x]) / root2
+    low, high, _ = _finite_range(row)
+    sums[0] = low
+    sums[1] = high
+    sums[2] = _sum(row)
 
 
 @njit(cache=True, nogil=True)

@@ -272,18 +272,21 @@ class _Maps:
                 return self._original()[0]
         return self._full_fine()
 
-    def _original(self) -> tuple[_Fine, np.ndarray, float]:
-        """An original's sums of ``h``, energy and the energy's sum, ``h`` never kept whole."""
+    def _original(self) -> tuple[_Fine, np.ndarray, float, np.ndarray, np.ndarray]:
+        """An original's sums of ``h``, energy and the energy's sum (``h`` never kept whole),
+        and its Sobel magnitude with that kernel's sums, all in one pass."""
 
         def compute():
             energy = self._empty()
-            sums = self._row_sums(5)
+            edges = self._empty()
+            sums = self._row_sums(8)
             self._bands(
                 _kernels().energy_band,
                 self.plane,
                 _weights(1.0),
                 _weights(WINDOW_SIGMA),
                 energy,
+                edges,
                 sums,
             )
             largest_square = float(sums[:, 1].max())
@@ -297,7 +300,7 @@ class _Maps:
                 not sums[:, 2].any(),
                 float(sums[:, 3].max()),
             )
-            return fine, energy, math.fsum(sums[:, 4])
+            return fine, energy, math.fsum(sums[:, 4]), edges, sums[:, 5:]
 
         return self._get("original", compute)
 
@@ -391,7 +394,7 @@ class _Maps:
                 _, energy, total = self._values["walls"]
                 return energy, total
             if not self._walls_expected:
-                return self._original()[1:]
+                return self._original()[1:3]
 
         def compute():
             energy = self._empty()
@@ -462,13 +465,17 @@ class _Maps:
 
         def compute():
             kernels = _kernels()
-            edges = self._empty()
-            sums = self._row_sums(3)
-            self._bands(kernels.sobel_band, self.plane, edges, sums)
+            if self._walls_expected:
+                edges = self._empty()
+                sums = self._row_sums(3)
+                self._bands(kernels.sobel_band, self.plane, edges, sums)
+            else:
+                edges, sums = self._original()[3:]
             mean = math.fsum(sums[:, 2]) / edges.size
             constant = bool(sums[:, 0].min() == sums[:, 1].max())
-            self._bands(kernels.centred_sums, edges, edges, mean, mean, sums)
-            return edges, mean, math.fsum(sums[:, 0]), constant
+            spread = self._row_sums(2)
+            self._bands(kernels.centred_sums, edges, edges, mean, mean, spread)
+            return edges, mean, math.fsum(spread[:, 0]), constant
 
         return self._get("edges", compute)
 
