@@ -397,3 +397,24 @@ def test_an_originals_energy_without_h_is_the_energy_from_h(cases, monkeypatch, 
         for field in ("total", "largest_square", "lag_scale", "finite", "largest_tone"):
             a, b = getattr(summary, field), getattr(full, field)
             assert a == b or (math.isnan(a) and math.isnan(b)), field
+
+
+@pytest.mark.parametrize("angle", [0.0, 0.5, 1.0, 2.0])
+def test_the_decimated_tensor_of_a_ramp_is_the_doubled_grids(monkeypatch, angle):
+    """On a linear ramp the tensor products are constant away from the edges: every
+    normalised window gives them back, so both windows agree there (float32 rounding),
+    with coherence 1 and the ramp's direction (twice its angle)."""
+    y, x = np.mgrid[:80, :90].astype(float)
+    ramp = 100 + 3 * (np.cos(angle) * y + np.sin(angle) * x)
+    everywhere = np.ones(ramp.shape, dtype=bool)
+    decimated = metrics._Maps(ramp.copy(), workers=1).contours(2.0, everywhere)
+    monkeypatch.setattr(metrics, "_DECIMATED_SIGMA", math.inf)
+    exact = metrics._Maps(ramp.copy(), workers=1).contours(2.0, everywhere)
+    inside = (slice(20, -20), slice(20, -20))
+    for d, e in zip(decimated, exact):
+        np.testing.assert_allclose(d[inside], e[inside], rtol=1e-5, atol=1e-6)
+    # the ramp rises 3 / 2 a doubled pixel; the kernel's unnormalised Sobel (1-2-1 across a
+    # difference two rows apart) reads 8 times that: strength (8 * 3 / 2)**2, coherence 1
+    np.testing.assert_allclose(decimated[0][inside], 144.0, rtol=1e-5)
+    np.testing.assert_allclose(decimated[2][inside], np.cos(2 * angle), atol=1e-5)
+    np.testing.assert_allclose(decimated[3][inside], np.sin(2 * angle), atol=1e-5)
