@@ -89,8 +89,7 @@ def child(sizes) -> None:
 
     planes = cases(sizes)
     others = {
-        size: [(image, labyrinth(image, seed=0)) for image in other_images(size)]
-        for size in sizes
+        size: [(image, labyrinth(image, seed=0)) for image in other_images(size)] for size in sizes
     }
     small = camera(64)
     metrics.describe(small, labyrinth(small, seed=0))  # compile or load numba's cache

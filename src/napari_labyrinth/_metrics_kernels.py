@@ -1237,7 +1237,9 @@ def orientation_band(plane, scale, weights, mode, needed, out0, out1, out2, out3
     for k in range(count):
         x0 = (k * width) // count
         x1 = ((k + 1) * width) // count
-        _tensor_tile(plane, scale, weights, mode, needed, k, x0, x1, y0, y1, out0, out1, out2, out3)
+        _tensor_tile(
+            plane, scale, weights, mode, needed, k, x0, x1, y0, y1, out0, out1, out2, out3
+        )
 
 
 #: Variance (original pixels squared) of the 1-2-1 filter on the doubled grid that
@@ -1252,8 +1254,9 @@ def decimated_sigma(sigma: float) -> float:
 
 
 @njit(cache=True, nogil=True)
-def _doubled_products(plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work,
-                      products_e, products_o):
+def _doubled_products(
+    plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work, products_e, products_o
+):
     """The tensor products of doubled row ``i`` (see :func:`_tensor_products`); the doubled
     rows it reads are kept in slots ``i % 3`` of ``rows_e``/``rows_o`` (slot 3: zeros)."""
     doubled_height = 2 * plane.shape[0]
@@ -1297,23 +1300,49 @@ def _prefilter_columns(products_e, products_o, weight, out):
 
 
 @njit(cache=True, nogil=True)
-def _add_doubled(plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work,
-                 products_e, products_o, weight, out):
+def _add_doubled(
+    plane,
+    scale,
+    i,
+    origin,
+    rows_e,
+    rows_o,
+    row_of_slot,
+    line,
+    slots,
+    work,
+    products_e,
+    products_o,
+    weight,
+    out,
+):
     """``out += weight *`` doubled row ``i``'s products filtered 1-2-1 across columns (zero
     outside the doubled plane)."""
     if i < 0 or i >= 2 * plane.shape[0]:
         return
-    _doubled_products(plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work,
-                      products_e, products_o)
+    _doubled_products(
+        plane,
+        scale,
+        i,
+        origin,
+        rows_e,
+        rows_o,
+        row_of_slot,
+        line,
+        slots,
+        work,
+        products_e,
+        products_o,
+    )
     _prefilter_columns(products_e, products_o, weight, out)
 
 
 @njit(cache=True, nogil=True)
-def _decimated_tile(plane, scale, weights, needed, tile_index, x0, x1, y0, y1, out0, out1, out2,
-                  out3):
-    """:func:`decimated_tensor_band` on the output columns ``[x0, x1)`` (column tile ``tile_index``)."""
+def _decimated_tile(
+    plane, scale, weights, needed, tile_index, x0, x1, y0, y1, out0, out1, out2, out3
+):
+    """:func:`decimated_tensor_band` on the output columns ``[x0, x1)`` (tile ``tile_index``)."""
     height, width = plane.shape
-    doubled_height = 2 * height
     radius = weights.shape[0] - 1
     ring_rows = 2 * radius + 1
     zero_slot = ring_rows
@@ -1353,13 +1382,55 @@ def _decimated_tile(plane, scale, weights, needed, tile_index, x0, x1, y0, y1, o
                 sampled[:] = below
             else:
                 sampled[:] = 0.0
-                _add_doubled(plane, scale, 2 * row - 1, origin, rows_e, rows_o, row_of_slot,
-                             line, slots, work, products_e, products_o, quarter, sampled)
-            _add_doubled(plane, scale, 2 * row, origin, rows_e, rows_o, row_of_slot, line,
-                         slots, work, products_e, products_o, quarter + quarter, sampled)
+                _add_doubled(
+                    plane,
+                    scale,
+                    2 * row - 1,
+                    origin,
+                    rows_e,
+                    rows_o,
+                    row_of_slot,
+                    line,
+                    slots,
+                    work,
+                    products_e,
+                    products_o,
+                    quarter,
+                    sampled,
+                )
+            _add_doubled(
+                plane,
+                scale,
+                2 * row,
+                origin,
+                rows_e,
+                rows_o,
+                row_of_slot,
+                line,
+                slots,
+                work,
+                products_e,
+                products_o,
+                quarter + quarter,
+                sampled,
+            )
             below[:] = 0.0
-            _add_doubled(plane, scale, 2 * row + 1, origin, rows_e, rows_o, row_of_slot, line,
-                         slots, work, products_e, products_o, quarter, below)
+            _add_doubled(
+                plane,
+                scale,
+                2 * row + 1,
+                origin,
+                rows_e,
+                rows_o,
+                row_of_slot,
+                line,
+                slots,
+                work,
+                products_e,
+                products_o,
+                quarter,
+                below,
+            )
             below_row = 2 * row + 1
             for c in range(3):
                 for k in range(n):

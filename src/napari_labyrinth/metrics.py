@@ -565,7 +565,7 @@ def _wall_orientation(plane, scale, sigma, workers, walls, empty):
 
 
 def _decimated(sigma: float) -> bool:
-    """Whether the structure tensor at ``sigma`` is the decimated one (see ``_DECIMATED_SIGMA``)."""
+    """Whether the structure tensor at ``sigma`` is decimated (see ``_DECIMATED_SIGMA``)."""
     return sigma >= _DECIMATED_SIGMA
 
 
@@ -591,10 +591,19 @@ def _derived_tensor(plane, scale, sigma, workers, needed, outputs):
     """
     kernels = _kernels()
     if not _decimated(sigma):
-        return _orientation_maps(plane, scale, sigma, kernels.TENSOR_DERIVED, workers, needed, outputs)
+        return _orientation_maps(
+            plane, scale, sigma, kernels.TENSOR_DERIVED, workers, needed, outputs
+        )
     weights = _tensor_weights(sigma)
     _in_bands(
-        kernels.decimated_tensor_band, plane.shape[0], workers, plane, scale, weights, needed, *outputs
+        kernels.decimated_tensor_band,
+        plane.shape[0],
+        workers,
+        plane,
+        scale,
+        weights,
+        needed,
+        *outputs,
     )
     return outputs
 
