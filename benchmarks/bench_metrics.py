@@ -12,7 +12,12 @@ every round):
 - ``next passes``: ``comparison.describe(rendered)`` on a ``Comparison`` that
   already holds the original's maps (every pass of a stack after the first);
 - ``describe()``: ``metrics.describe(original, rendered)`` called again with
-  the same original: the original's maps come from its content-keyed cache.
+  the same original: the original's maps come from its content-keyed cache;
+- ``new originals``: five other images (scikit-image's astronaut, rocket,
+  immunohistochemistry, retina, coffee; grey, resized), one after the other
+  in the same warm process, each ``Comparison(original).describe(rendered)``
+  for an original never seen: the mean per call (a user stepping through
+  images, or a stack of a new plane).
 
 Each tree's code runs in a fresh process per round (``this`` is the tree
 holding this script; ``--against DIR`` adds another checkout, e.g. the main
@@ -39,7 +44,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))  # the previous implementation, kept for the tests
 
-MODES = ("first pass", "next passes", "describe()")
+MODES = ("first pass", "next passes", "describe()", "new originals")
+#: scikit-image images behind ``new originals``.
+OTHERS = ("astronaut", "rocket", "immunohistochemistry", "retina", "coffee")
 
 
 def camera(size: int) -> np.ndarray:
@@ -47,6 +54,20 @@ def camera(size: int) -> np.ndarray:
 
     image = transform.resize(data.camera(), (size, size), order=1, preserve_range=True)
     return image.astype(np.uint8)
+
+
+def other_images(size: int) -> list[np.ndarray]:
+    """The :data:`OTHERS`, grey, resized to ``size`` x ``size``, as uint8."""
+    from skimage import color, data, transform
+
+    images = []
+    for name in OTHERS:
+        image = getattr(data, name)()
+        if image.ndim == 3:
+            image = color.rgb2gray(image[..., :3]) * 255
+        image = transform.resize(image, (size, size), order=1, preserve_range=True)
+        images.append(image.astype(np.uint8))
+    return images
 
 
 def timed(function, *arguments):
@@ -67,6 +88,9 @@ def child(sizes) -> None:
     from napari_labyrinth import labyrinth, metrics
 
     planes = cases(sizes)
+    others = {
+        size: [(image, labyrinth(image, seed=0)) for image in other_images(size)] for size in sizes
+    }
     small = camera(64)
     metrics.describe(small, labyrinth(small, seed=0))  # compile or load numba's cache
     rows = []
@@ -80,6 +104,13 @@ def child(sizes) -> None:
         wall, cpu, _ = timed(metrics.describe, original, rendered)
         rows.append((size, "describe()", wall, cpu))
         rows.append((size, "values", result, None))
+    for size in sizes:
+        calls = [
+            timed(lambda o, r: metrics.Comparison(o).describe(r), original, rendered)[:2]
+            for original, rendered in others[size]
+        ]
+        wall, cpu = np.mean(calls, axis=0).tolist()
+        rows.append((size, "new originals", wall, cpu))
     print(json.dumps({"source": str(Path(metrics.__file__).parent), "rows": rows}))
 
 

@@ -153,22 +153,30 @@ def test_describe_steps_yields_every_metric_in_the_order_of_describe(cases):
     assert list(metrics.describe(original, rendered)) == list(metrics.METRICS)
 
 
-def _count_calls(monkeypatch, name):
+def _count_calls(monkeypatch, *names):
     from napari_labyrinth import _metrics_kernels
 
     calls = []
-    kernel = getattr(_metrics_kernels, name)
 
-    def counting(*arguments):
-        calls.append(arguments)
-        return kernel(*arguments)
+    def counting(kernel):
+        def count(*arguments):
+            calls.append(arguments)
+            return kernel(*arguments)
 
-    monkeypatch.setattr(_metrics_kernels, name, counting)
+        return count
+
+    for name in names:
+        monkeypatch.setattr(_metrics_kernels, name, counting(getattr(_metrics_kernels, name)))
     return calls
 
 
+def _count_tensors(monkeypatch):
+    """The calls of both structure-tensor kernels (the walls' and the contours'), in one list."""
+    return _count_calls(monkeypatch, "orientation_band", "decimated_tensor_band")
+
+
 def test_stopping_between_metrics_skips_the_work_of_the_others(cases, monkeypatch):
-    tensors = _count_calls(monkeypatch, "orientation_band")
+    tensors = _count_tensors(monkeypatch)
     steps = metrics.Comparison(cases["original"]).describe_steps(cases["labyrinth"])
     assert next(steps)[0] == "texture_added"
     assert next(steps)[0] == "labyrinth_cover"
@@ -179,7 +187,7 @@ def test_stopping_between_metrics_skips_the_work_of_the_others(cases, monkeypatc
 
 
 def test_a_comparison_computes_the_originals_maps_once(cases, monkeypatch):
-    tensors = _count_calls(monkeypatch, "orientation_band")  # one call per band of rows
+    tensors = _count_tensors(monkeypatch)  # one call per band of rows
     comparison = metrics.Comparison(cases["original"], workers=1)
     renderings = [cases["labyrinth"], cases["labyrinth"][:, ::-1].copy(), cases["noise"]]
     rows = [comparison.describe(rendered) for rendered in renderings]
@@ -193,7 +201,7 @@ def test_a_comparison_computes_the_originals_maps_once(cases, monkeypatch):
 
 
 def test_a_comparisons_edge_enhancement_is_the_one_describe_gives(cases, monkeypatch):
-    tensors = _count_calls(monkeypatch, "orientation_band")
+    tensors = _count_tensors(monkeypatch)
     comparison = metrics.Comparison(cases["original"], workers=1)
     for rendered in (cases["labyrinth"], cases["noise"], cases["labyrinth"]):
         value = comparison.edge_enhancement(rendered)
@@ -209,19 +217,20 @@ def test_the_originals_contours_are_computed_where_walls_need_them_once(monkeypa
     from napari_labyrinth import _metrics_kernels
 
     rng = np.random.default_rng(3)
-    height, width = 96, 1100  # three column tiles
+    height, width = 96, 1400  # three column tiles
     original = ndimage.gaussian_filter(rng.random((height, width)) * 255, 4)
     walls = np.zeros((height, width), dtype=bool)
     walls[10:14, 30:40] = True  # tile 0
-    walls[70, 900] = True  # tile 2
-    assert _metrics_kernels.tensor_tiles(width, 32) == 3
+    walls[70, 1200] = True  # tile 2
     sigma = metrics.CONTOUR_SIGMA
+    radius = metrics._weights(_metrics_kernels.decimated_sigma(sigma)).shape[0] - 1
+    assert _metrics_kernels.tensor_tiles(width, radius) == 3
     everywhere = metrics._Maps(original.copy(), workers=1).contours(sigma, np.ones_like(walls))
     maps = metrics._Maps(original.copy(), workers=1)
-    calls = _count_calls(monkeypatch, "orientation_band")
+    calls = _count_calls(monkeypatch, "decimated_tensor_band")
     partial = maps.contours(sigma, walls)
     assert len(calls) == 1
-    needed = calls[0][4]  # (rows, tiles) computed
+    needed = calls[0][3]  # (rows, tiles) computed
     assert needed.sum() == 5 and needed[10:14, 0].all() and needed[70, 2]
     for part, whole in zip(partial, everywhere):
         np.testing.assert_array_equal(part[walls], whole[walls])
@@ -229,7 +238,7 @@ def test_the_originals_contours_are_computed_where_walls_need_them_once(monkeypa
     maps.contours(sigma, walls)
     assert len(calls) == 1
     maps.contours(sigma, np.ones_like(walls))  # the rest, once
-    assert len(calls) == 2 and calls[1][4].sum() == 3 * height - 5
+    assert len(calls) == 2 and calls[1][3].sum() == 3 * height - 5
     for part, whole in zip(maps.contours(sigma, walls), everywhere):
         np.testing.assert_array_equal(part, whole)
 
@@ -245,7 +254,7 @@ def test_a_comparison_keeps_its_own_copy_of_the_original(cases):
 def test_describe_reuses_an_original_by_content_not_by_identity(cases, monkeypatch):
     original, rendered = cases["original"], cases["labyrinth"]
     metrics.describe(original, rendered, workers=1)
-    tensors = _count_calls(monkeypatch, "orientation_band")  # one call per band of rows
+    tensors = _count_tensors(monkeypatch)  # one call per band of rows
     metrics.describe(original.copy(), rendered, workers=1)  # same content: contours reused
     assert len(tensors) == 1  # the walls' tensor only
     changed = original.copy()
@@ -332,3 +341,80 @@ def test_maps_made_without_walls_give_the_same_walls_when_asked(cases, tone):
     assert walls[0].any()
     np.testing.assert_array_equal(walls[0], expected[0])
     np.testing.assert_array_equal(walls[1], expected[1])
+
+
+def test_the_decimated_contour_tensor_is_close_to_the_doubled_grids(monkeypatch):
+    """The contours' window (1-2-1 on the doubled grid, then a Gaussian on the original
+    grid) against the doubled grid's Gaussian of the same variance: the coherent strength
+    within 1 % of its largest value, the angles within 2 degrees where there is one."""
+    from napari_labyrinth import samples
+
+    original = samples.camera()[100:356, 150:406].astype(float)
+    everywhere = np.ones(original.shape, dtype=bool)
+    sigma = metrics.CONTOUR_SIGMA
+    decimated = metrics._Maps(original.copy(), workers=1).contours(sigma, everywhere)
+    monkeypatch.setattr(metrics, "_DECIMATED_SIGMA", math.inf)  # the doubled grid's
+    exact = metrics._Maps(original.copy(), workers=1).contours(sigma, everywhere)
+    largest = exact[0].max()
+    assert np.abs(decimated[0] - exact[0]).max() < 1e-2 * largest
+    assert np.abs(decimated[0] - exact[0]).max() > 1e-6 * largest  # not the same window
+    oriented = exact[0] > 1e-2 * largest
+    cosine = decimated[2] * exact[2] + decimated[3] * exact[3]  # cos of twice the difference
+    assert np.all(cosine[oriented] > np.cos(np.radians(4)))
+
+
+@pytest.mark.parametrize("workers", [1, 3])
+def test_an_originals_energy_without_h_is_the_energy_from_h(cases, monkeypatch, workers):
+    """An original's maps make the energy from rows of h they do not keep, and the Sobel
+    edges in the same pass: the floats of h's map smoothed (energy, sums, finiteness,
+    largest tone) and of the Sobel kernel alone, bit for bit, in any bands."""
+    monkeypatch.setattr(metrics, "_MIN_BAND_ROWS", 5)
+    rng = np.random.default_rng(4)
+    holes = cases["labyrinth"].copy()
+    holes[7, 9] = np.nan
+    holes[150, 3] = np.inf
+    planes = [
+        cases["labyrinth"],
+        cases["original"] * 1e30,
+        cases["noise"] * 1e-30,
+        holes,
+        rng.normal(0, 1e200, (40, 23)),  # h**2 overflows
+        rng.integers(0, 256, (3, 3)).astype(float),
+        rng.integers(0, 256, (5, 7)).astype(float),
+        rng.integers(0, 256, (20, 4)).astype(float),
+    ]
+    for plane in planes:
+        original = metrics._Maps(plane.copy(), workers=workers, walls=False)
+        whole = metrics._Maps(plane.copy(), workers=workers)
+        energy, total = original.energy()
+        expected_energy, expected_total = whole.energy()
+        np.testing.assert_array_equal(energy, expected_energy)
+        assert total == expected_total or (math.isnan(total) and math.isnan(expected_total))
+        for map_, expected in zip(original.edges(), whole.edges()):
+            np.testing.assert_array_equal(map_, expected)
+        summary, full = original._fine(), whole._fine()
+        assert summary.fine is None and "fine" not in original._values
+        for field in ("total", "largest_square", "lag_scale", "finite", "largest_tone"):
+            a, b = getattr(summary, field), getattr(full, field)
+            assert a == b or (math.isnan(a) and math.isnan(b)), field
+
+
+@pytest.mark.parametrize("angle", [0.0, 0.5, 1.0, 2.0])
+def test_the_decimated_tensor_of_a_ramp_is_the_doubled_grids(monkeypatch, angle):
+    """On a linear ramp the tensor products are constant away from the edges: every
+    normalised window gives them back, so both windows agree there (float32 rounding),
+    with coherence 1 and the ramp's direction (twice its angle)."""
+    y, x = np.mgrid[:80, :90].astype(float)
+    ramp = 100 + 3 * (np.cos(angle) * y + np.sin(angle) * x)
+    everywhere = np.ones(ramp.shape, dtype=bool)
+    decimated = metrics._Maps(ramp.copy(), workers=1).contours(2.0, everywhere)
+    monkeypatch.setattr(metrics, "_DECIMATED_SIGMA", math.inf)
+    exact = metrics._Maps(ramp.copy(), workers=1).contours(2.0, everywhere)
+    inside = (slice(20, -20), slice(20, -20))
+    for d, e in zip(decimated, exact):
+        np.testing.assert_allclose(d[inside], e[inside], rtol=1e-5, atol=1e-6)
+    # the ramp rises 3 / 2 a doubled pixel; the kernel's unnormalised Sobel (1-2-1 across a
+    # difference two rows apart) reads 8 times that: strength (8 * 3 / 2)**2, coherence 1
+    np.testing.assert_allclose(decimated[0][inside], 144.0, rtol=1e-5)
+    np.testing.assert_allclose(decimated[2][inside], np.cos(2 * angle), atol=1e-5)
+    np.testing.assert_allclose(decimated[3][inside], np.sin(2 * angle), atol=1e-5)

@@ -10,9 +10,18 @@ Tolerances, and why:
 - ``texture_added`` and ``edge_enhancement``: relative 1e-9 (sums in a
   different order; the energy added is ``G * h1**2 - G * h0**2`` instead of
   ``G * (h1**2 - h0**2)``).
-- ``orientation_coherence`` and ``contour_alignment``: relative 1e-5 (the
-  structure tensors are float32, about 1e-7 each; the weighted means move by
-  about 1e-8).
+- ``orientation_coherence``: relative 5e-4, ``contour_alignment``: relative
+  2e-3. Both structure tensors (the walls' at sigma 2, the input's contours
+  at sigma 4) are a different window now: the doubled grid's products are
+  filtered 1-2-1 and sampled on the original grid, then smoothed by a
+  Gaussian of the same total variance (``_metrics_kernels.decimated_tensor_band``),
+  where the reference smooths the doubled grid itself; the windows differ by
+  a few per cent of a weight (linear interpolation of the Gaussian between
+  its even taps). On these cases the coherence moves by at most 2.7e-4
+  (relative) and the alignment by at most 1.3e-3 (the ``branches`` crop),
+  most by 1e-5 to 2e-4. Planes narrower than the walls' window (17 pixels)
+  are mostly edge, where the windows differ most: relative 1e-2 (the 20 x 4
+  case moves by 3.3e-3 and 7.5e-3).
 
 NaN and infinite pixels give the reference's NaN metrics (texture added,
 coherence, alignment and edge enhancement), and the wall metrics of the rest.
@@ -32,9 +41,17 @@ EXACT = ("labyrinth_cover", "wall_width")
 RTOL = {
     "texture_added": 1e-9,
     "edge_enhancement": 1e-9,
-    "orientation_coherence": 1e-5,
-    "contour_alignment": 1e-5,
+    "orientation_coherence": 5e-4,
+    "contour_alignment": 2e-3,
 }
+#: The tolerances of the structure-tensor metrics on planes narrower than the walls' window.
+NARROW_RTOL = {"orientation_coherence": 1e-2, "contour_alignment": 1e-2}
+NARROW = 17
+
+
+def rtol(key, shape):
+    """The tolerance of metric ``key`` on a plane of ``shape`` (see the module's docstring)."""
+    return NARROW_RTOL.get(key, RTOL[key]) if min(shape) < NARROW else RTOL[key]
 
 
 def _crop(image, top, left, size):
@@ -137,12 +154,14 @@ def test_every_metric_agrees_with_the_previous_implementation(name, original, re
     assert list(new) == list(old)
     for key in EXACT:
         assert new[key] == old[key] or (math.isnan(new[key]) and math.isnan(old[key])), key
-    for key, rtol in RTOL.items():
-        assert deviation(old[key], new[key]) <= rtol, (key, old[key], new[key])
+    for key in RTOL:
+        tolerance = rtol(key, original.shape)
+        assert deviation(old[key], new[key]) <= tolerance, (key, old[key], new[key])
     # the single metrics, each called alone, agree too
     assert metrics.labyrinth_cover(rendered) == reference.labyrinth_cover(rendered)
     single = metrics.contour_alignment(original, rendered)
-    assert deviation(reference.contour_alignment(original, rendered), single) <= 1e-5
+    old_single = reference.contour_alignment(original, rendered)
+    assert deviation(old_single, single) <= rtol("contour_alignment", original.shape)
 
 
 @pytest.mark.parametrize(("name", "original", "rendered"), CASES, ids=IDS)
@@ -177,5 +196,5 @@ def test_the_study_images_at_full_size_agree():
         new = metrics.describe(image, rendered, workers=workers)
         for key in EXACT:
             assert new[key] == old[key], key
-        for key, rtol in RTOL.items():
-            assert deviation(old[key], new[key]) <= rtol, key
+        for key, tolerance in RTOL.items():
+            assert deviation(old[key], new[key]) <= tolerance, key
