@@ -2,6 +2,8 @@
 
 - ``count_values``: the histogram of 8- and 16-bit integers, from which
   ``percentiles.integer_percentiles`` takes the default tone limits exactly;
+- ``block_extremes`` and ``count_tails``: the same limits from the few
+  blocks of values that can hold them (``percentiles`` says when);
 - ``integer_tones``: the 0-255 tones of a plane, as ``ToneScale.to_tones``;
 - ``write_back``: the values of the tones that changed, as
   ``ToneScale.from_tones``, written over the source values in place, with no
@@ -54,6 +56,69 @@ def _count_block(flat, offset, counts):
     for k in range(size):
         counts[k] += np.int64(first[k]) + np.int64(second[k]) + np.int64(third[k])
         counts[k] += np.int64(fourth[k])
+
+
+#: Values in a block of ``block_extremes``: few, so that the tails' blocks are few.
+EXTREMES_BLOCK = 64
+
+
+@njit(inline="always")
+def _extremes(chunk, size):
+    """The least and greatest of ``chunk[:size]`` (a known ``size``: a vector reduction)."""
+    low = high = chunk[0]
+    for i in range(size):
+        low = min(low, chunk[i])
+        high = max(high, chunk[i])
+    return low, high
+
+
+@njit(cache=True, nogil=True)
+def block_extremes(flat, offset, shift, below, above):
+    """The least and greatest value of every ``EXTREMES_BLOCK`` values of ``flat``.
+
+    Returns ``(least, greatest)``, one entry a block (the last may be
+    shorter). ``below[k]`` is incremented for every block whose least value
+    lies in the coarse bin k, ``(v - offset) >> shift``, ``above[k]`` for
+    every block whose greatest value does.
+    """
+    n = flat.shape[0]
+    blocks = (n + EXTREMES_BLOCK - 1) // EXTREMES_BLOCK
+    least, greatest = np.empty(blocks, flat.dtype), np.empty(blocks, flat.dtype)
+    for b in range(blocks):
+        chunk = flat[b * EXTREMES_BLOCK : (b + 1) * EXTREMES_BLOCK]
+        if chunk.shape[0] == EXTREMES_BLOCK:
+            least[b], greatest[b] = _extremes(chunk, EXTREMES_BLOCK)
+        else:
+            least[b], greatest[b] = _extremes(chunk, chunk.shape[0])
+    for b in range(blocks):
+        below[(np.intp(least[b]) - offset) >> shift] += 1
+        above[(np.intp(greatest[b]) - offset) >> shift] += 1
+    return least, greatest
+
+
+@njit(cache=True, nogil=True)
+def count_tails(flat, least, greatest, low_stop, low_start, low_counts, high_start, high_counts):
+    """Count the values below ``low_stop`` and those from ``high_start`` on.
+
+    ``low_counts[v - low_start]`` for ``v < low_stop`` (``low_start`` is
+    the least value of ``flat``), ``high_counts[v - high_start]`` for
+    ``v >= high_start``; only the blocks whose extremes (``block_extremes``)
+    reach a tail are read.
+    """
+    n = flat.shape[0]
+    for b in range(least.shape[0]):
+        start = b * EXTREMES_BLOCK
+        stop = min(n, start + EXTREMES_BLOCK)
+        if np.intp(least[b]) < low_stop:
+            for i in range(start, stop):
+                value = np.intp(flat[i])
+                if value < low_stop:
+                    low_counts[value - low_start] += 1
+        if np.intp(greatest[b]) >= high_start:
+            for i in range(start, stop):
+                value = np.intp(flat[i])
+                if value >= high_start:
+                    high_counts[value - high_start] += 1
 
 
 @njit(inline="always")
