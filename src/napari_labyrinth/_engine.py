@@ -29,6 +29,8 @@ from .core.parameters import LabyrinthParameters
 from .core.planes import PlaneLayout
 from .core.tone_scale import (
     ToneScale,
+    banded_scale_arguments,
+    fits_banded_pass,
     integer_plane_tones,
     write_changed_values,
     write_listed_values,
@@ -93,12 +95,13 @@ def render(
     the image after every pass, and the diagnostics in the image's layout.
     """
     passes = parameters.passes
-    result, targets = _allocate(image, layout, passes, record_passes)
     source = layout.to_planes(image)
     leading = layout.leading_shape
     counts = _diagnostic_counts(layout, passes)
     planes = list(layout.rendered_indices())
     plane_workers = max(1, min(workers, len(planes)))
+    banded = _banded_render(image, source, planes, parameters, max(1, workers // plane_workers))
+    result, targets = _allocate(image, layout, passes, record_passes, written_whole=banded)
     stop = threading.Event()
 
     def passes_of(index):
@@ -106,6 +109,27 @@ def render(
         if not passes:
             return
         values = source[index]
+        if banded:  # tones in and values out, band of rows by band of rows
+            work = _banded_tones(values.shape, passes == 1 and not record_passes, parameters)
+            changes = new_changes(values.size)
+            for pass_index in range(passes):
+                if stop.is_set():
+                    return
+                write_out = record_passes or pass_index == passes - 1
+                _banded_pass(
+                    values,
+                    targets[pass_index if record_passes else 0][index] if write_out else None,
+                    work,
+                    scale,
+                    parameters,
+                    seed=seed,
+                    plane_index=layout.stream_index(index),
+                    pass_index=pass_index,
+                    counts=counts[(pass_index,) + index],
+                    changes=changes,
+                )
+                yield pass_index + 1
+            return
         # integer planes: tones in one pass, and no copy of them kept (see _write_back)
         work = integer_plane_tones(scale, values)
         initial = changes = None
@@ -149,15 +173,86 @@ def render(
     return result, np.ascontiguousarray(diagnostics)
 
 
-def _allocate(image: np.ndarray, layout: PlaneLayout, passes: int, record_passes: bool):
+def _allocate(
+    image: np.ndarray,
+    layout: PlaneLayout,
+    passes: int,
+    record_passes: bool,
+    *,
+    written_whole: bool = False,
+):
     """The result (a copy of the image, or the input and a copy per pass) and, in the
-    layout of planes, where each pass (or the last) is written."""
+    layout of planes, where each pass (or the last) is written.
+
+    ``written_whole``: the passes write every pixel of the planes they render
+    (the banded pass), so only the others (alpha) are copied there.
+    """
     if record_passes:
         result = np.empty((passes + 1,) + image.shape, dtype=image.dtype)
-        result[...] = image
-        return result, [layout.to_planes(result[k]) for k in range(1, passes + 1)]
-    result = image.copy()
-    return result, [layout.to_planes(result)]
+        if written_whole:
+            result[0] = image
+        else:
+            result[...] = image
+        targets = [layout.to_planes(result[k]) for k in range(1, passes + 1)]
+    else:
+        result = np.empty(image.shape, image.dtype) if written_whole else image.copy()
+        targets = [layout.to_planes(result)]
+    if written_whole:
+        source = layout.to_planes(image)
+        for index in np.ndindex(layout.leading_shape):
+            if layout.is_alpha(index):
+                for target in targets:
+                    target[index] = source[index]
+    return result, targets
+
+
+def _banded_render(image, source, planes, parameters, plane_threads) -> bool:
+    """Whether every plane renders on one thread by ``_banded_pass``: integer planes that
+    are C-contiguous, in an order of rows (not the checkerboard), not in tiles."""
+    if not parameters.passes or not planes or image.dtype.kind not in "iu":
+        return False
+    if parameters.scan == "checkerboard":
+        return False
+    if plane_threads > 1 and exact_order_refusal(parameters) is None:
+        shape = source.shape[-2:]
+        if math.prod(shape) >= MIN_PARALLEL_PIXELS and shape[0] > default_tile(shape, 2)[0]:
+            return False  # the plane's passes may run in tiles on several threads
+    return all(fits_banded_pass(source[index]) for index in planes)
+
+
+def _banded_tones(shape, only_pass, parameters) -> np.ndarray:
+    """The float32 tones ``_banded_pass`` updates: a ring of one band of rows and the rows
+    around it for the only pass of a plane (any border but "wrap"), else a whole plane."""
+    from .core._banded_pass import band_rows
+
+    rows = band_rows(shape[1]) + 2
+    if only_pass and parameters.border != "wrap" and rows < shape[0]:
+        return np.empty((rows, shape[1]), dtype=np.float32)
+    return np.empty(shape, dtype=np.float32)
+
+
+def _banded_pass(
+    values, target, work, scale, parameters, *, seed, plane_index, pass_index, counts, changes
+) -> None:
+    """One pass of ``core._banded_pass.banded_pass`` over ``work``, the tones of ``values``:
+    made in the first pass, and the values written into ``target`` unless it is None."""
+    from .core._banded_pass import banded_pass  # numba is imported on first use only
+
+    banded_pass(
+        values,
+        values if target is None else target,  # not written to without write_out
+        work,
+        pass_index == 0,
+        target is not None,
+        *banded_scale_arguments(scale, values.dtype),
+        *_kernel_arguments(parameters),
+        np.uint64(seed),
+        plane_index,
+        pass_index,
+        *_kernel_options(parameters),
+        counts,
+        changes,
+    )
 
 
 def _diagnostic_counts(layout: PlaneLayout, passes: int) -> np.ndarray:
