@@ -69,14 +69,19 @@ def banded_pass(values, target, tones, tones_in, write_out, paper_uint8, low, ga
         As ``labyrinth_pass`` takes them (a plane of integers is finite),
         any scan but the checkerboard.
     changes : (1 + capacity,) int64 array
-        Room for the pixels a band's pass writes, as ``labyrinth_pass``
-        takes it: in a pass that makes the tones and writes the values, a
-        band with few of them copies the source values and writes those only.
+        The pixels the passes write, as ``labyrinth_pass`` notes them (zero
+        before the first pass): with a ring, those of each band in turn; with
+        a whole plane, those of every pass so far. Where they are few, the
+        source values are copied and only they are written.
     """
     height, width = values.shape
     ring = tones.shape[0] < height
     rows = tones.shape[0] - 2 if ring else band_rows(width)
     made = 0  # rows whose tones are made
+    # a whole plane that changed little so far: its values are written after the pass
+    deferred = write_out and not ring and not paper_uint8 and 32 * changes[0] < height * width
+    # the only pass, a ring: the source values copied into the target with the tones
+    copied = ring and write_out and not paper_uint8
     if tones_in and border == WRAP and height > 1:  # row 0 reads the last row
         _make_tones(values, tones, height - 1, height, 0, low, gain, low32, gain32, wide)
     for band_start in range(0, height, rows):
@@ -89,30 +94,48 @@ def banded_pass(values, target, tones, tones_in, write_out, paper_uint8, low, ga
                     tones[k, x] = tones[rows + k, x]
         if tones_in:  # the band and the row below it, which the band's last row reads
             ahead = min(height, band_stop + 1)
-            _make_tones(values, tones, made, ahead, offset, low, gain, low32, gain32, wide)
+            if copied:  # and the source values into the target, where few will change
+                _make_tones_and_copy(values, tones, target, made, ahead, offset, low, gain, low32,
+                                     gain32, wide)  # fmt: skip
+            else:
+                _make_tones(values, tones, made, ahead, offset, low, gain, low32, gain32, wide)
             made = ahead
-        changes[0] = 0
+        if ring:
+            changes[0] = 0
         labyrinth_pass(
             tones, mean_threshold, variance_threshold, range_bounds, tone_low, tone_high,
             max_tries, seed, plane_index, pass_index, border, variance_ratio, variance_action,
             condition_order, on_exhausted, scan, include_centre, False, counts, -1, band_start,
             band_stop, 0, -1, changes, offset, height,
         )  # fmt: skip
-        if not write_out:
-            continue
-        if paper_uint8:
-            _rounded_rows(target, tones, band_start, band_stop, offset)
-            continue
-        written = changes[0]
-        # the pixels this pass wrote are all that changed if it made the tones
-        few = written < changes.shape[0] and 16 * written < (band_stop - band_start) * width
-        if tones_in and few:
-            _copy_rows(target, values, band_start, band_stop)
-            _write_listed(target, values, tones, changes[1 : written + 1], offset, low, gain,
-                          low32, gain32, wide, lowest, highest)  # fmt: skip
-        else:
-            _write_rows(target, values, tones, band_start, band_stop, offset, low, gain, low32,
-                        gain32, wide, lowest, highest)  # fmt: skip
+        if write_out and not deferred:
+            _write_band(target, values, tones, band_start, band_stop, offset, changes, ring,
+                        paper_uint8, copied, low, gain, low32, gain32, wide, lowest,
+                        highest)  # fmt: skip
+    if deferred:
+        _write_band(target, values, tones, 0, height, 0, changes, True, False, False, low, gain,
+                    low32, gain32, wide, lowest, highest)  # fmt: skip
+
+
+@njit(nogil=True)
+def _write_band(target, values, tones, row_start, row_stop, offset, changes, listed, paper_uint8,
+                copied, low, gain, low32, gain32, wide, lowest, highest):  # fmt: skip
+    """The values of the rows ``row_start <= y < row_stop`` (tones at ``tones[y - offset]``):
+    if ``listed`` and ``changes`` holds few pixels (all that changed there), the source
+    values (unless ``copied`` there already) and those; else every pixel compared."""
+    if paper_uint8:
+        _rounded_rows(target, tones, row_start, row_stop, offset)
+        return
+    written = changes[0]
+    pixels = (row_stop - row_start) * values.shape[1]
+    if listed and written < changes.shape[0] and 16 * written < pixels:
+        if not copied:
+            _copy_rows(target, values, row_start, row_stop)
+        _write_listed(target, values, tones, changes[1 : written + 1], offset, low, gain, low32,
+                      gain32, wide, lowest, highest)  # fmt: skip
+    else:
+        _write_rows(target, values, tones, row_start, row_stop, offset, low, gain, low32, gain32,
+                    wide, lowest, highest)  # fmt: skip
 
 
 @njit(nogil=True)
@@ -127,6 +150,24 @@ def _make_tones(values, tones, row_start, row_stop, offset, low, gain, low32, ga
         for y in range(row_start, row_stop):
             for x in range(width):
                 tones[y - offset, x] = _tone(values[y, x], low, gain, low32, gain32, False)
+
+
+@njit(nogil=True)
+def _make_tones_and_copy(values, tones, target, row_start, row_stop, offset, low, gain, low32,
+                         gain32, wide):  # fmt: skip
+    """``_make_tones``, and the rows' values copied into ``target`` in the same loop."""
+    width = values.shape[1]
+    for y in range(row_start, row_stop):
+        if wide:
+            for x in range(width):
+                value = values[y, x]
+                target[y, x] = value
+                tones[y - offset, x] = _tone(value, low, gain, low32, gain32, True)
+        else:
+            for x in range(width):
+                value = values[y, x]
+                target[y, x] = value
+                tones[y - offset, x] = _tone(value, low, gain, low32, gain32, False)
 
 
 @njit(nogil=True)
