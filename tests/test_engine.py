@@ -327,12 +327,16 @@ def test_planes_the_bands_cannot_take_take_the_whole_plane_path():
 
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
-def test_bands_with_few_changes_write_only_those(monkeypatch, dtype):
+@pytest.mark.parametrize("passes", [1, 3])
+def test_bands_with_few_changes_write_only_those(monkeypatch, dtype, passes):
     # a photograph, enlarged: the paper's preset changes a few pixels of most bands
     image = np.repeat(np.repeat(data.camera()[250:310], 4, axis=0), 8, axis=1).astype(dtype)
     if dtype == np.uint16:
         image = image * 256
-    options = dict(preset="paper", passes=1, workers=1)
+    options = dict(preset="paper", passes=passes, workers=1)
     want = _unbanded(monkeypatch, labyrinth, image, **options)
     assert 0 < np.count_nonzero(want != image) < image.size // 32  # under 1/16 of a band
     np.testing.assert_array_equal(labyrinth(image, **options), want)
+    stack = np.stack([image, image[::-1]])  # every pass written out, from the same notes
+    want = _unbanded(monkeypatch, labyrinth_stack, stack, **options)
+    np.testing.assert_array_equal(labyrinth_stack(stack, **options), want)
