@@ -359,8 +359,9 @@ def run_pass(
                     labyrinth_pass, arguments, options, counts, rows, diagonals, workers, changes
                 )
                 return counts
-    # every call gives every argument: one compiled kernel serves all of them
-    labyrinth_pass(*arguments, *options, counts, -1, 0, -1, 0, -1, changes)
+    # every call gives every argument: one compiled kernel serves all of them, and
+    # numba's dispatcher takes its fast path (an omitted argument costs ~90 µs a call)
+    labyrinth_pass(*arguments, *options, counts, -1, 0, -1, 0, -1, changes, *_WHOLE_PLANE)
     return counts
 
 
@@ -402,6 +403,9 @@ def _gather_changes(changes: np.ndarray, parts: list[np.ndarray]) -> None:
         changes[written + 1 : written + 1 + len(listed)] = listed
         changes[0] = written + len(listed)
 
+
+#: ``labyrinth_pass``'s ``row_offset`` and ``plane_height`` for a plane held whole.
+_WHOLE_PLANE = (0, -1)
 
 #: Planes with fewer pixels run on one thread: the tiles would cost more than they gain.
 MIN_PARALLEL_PIXELS = 256 * 256
@@ -546,7 +550,7 @@ def _exact_order(
                     j = tiles[band][position[band]]
                 labyrinth_pass(
                     *head, own_counts, -1, band * rows, min(height, (band + 1) * rows),
-                    j * diagonals, (j + 1) * diagonals, own_changes,
+                    j * diagonals, (j + 1) * diagonals, own_changes, *_WHOLE_PLANE,
                 )  # fmt: skip
         except BaseException as error:  # noqa: BLE001 - raised in the caller's thread
             with changed:
@@ -590,14 +594,15 @@ def _checkerboard_bands(
     for colour in range(4):  # the pixels of one colour are independent of each other
         if len(bands) == 2:
             labyrinth_pass(
-                *arguments, *options, band_counts[0], colour, 0, height, 0, -1, band_changes[0]
-            )
+                *arguments, *options, band_counts[0], colour, 0, height, 0, -1, band_changes[0],
+                *_WHOLE_PLANE,
+            )  # fmt: skip
             continue
         with ThreadPoolExecutor(len(bands) - 1) as pool:
             for future in [
                 pool.submit(
                     labyrinth_pass, *arguments, *options, band_counts[k], colour, start, stop,
-                    0, -1, band_changes[k],
+                    0, -1, band_changes[k], *_WHOLE_PLANE,
                 )  # fmt: skip
                 for k, (start, stop) in enumerate(zip(bands[:-1], bands[1:]))
             ]:
