@@ -44,6 +44,25 @@ _MIX2 = np.uint64(0x94D049BB133111EB)
 _UNIT = 1.0 / 9007199254740992.0  # 2**-53
 
 
+def _prefetch_codegen(context, builder, signature, args):
+    """``llvm.prefetch`` of the element of ``args[0]`` at the indices ``args[1:]``."""
+    array_type = signature.args[0]
+    array = context.make_array(array_type)(context, builder, args[0])
+    pointer = cgutils.get_item_pointer(
+        context, builder, array_type, array, list(args[1:]), wraparound=False
+    )
+    byte_pointer, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
+    function = cgutils.get_or_insert_function(
+        builder.module,
+        ir.FunctionType(ir.VoidType(), [byte_pointer, i32, i32, i32]),
+        "llvm.prefetch.p0i8",
+    )
+    read, keep_in_every_level, data = (ir.Constant(i32, v) for v in (0, 3, 1))
+    address = builder.bitcast(pointer, byte_pointer)
+    builder.call(function, [address, read, keep_in_every_level, data])
+    return context.get_dummy_value()
+
+
 @intrinsic
 def _prefetch(typingctx, plane, y, x):
     """Ask the processor to bring ``plane[y, x]``'s cache line in (``llvm.prefetch``).
@@ -51,25 +70,13 @@ def _prefetch(typingctx, plane, y, x):
     A hint, with no effect on any value: a tile's row segments start on new
     lines of memory, where the processor's own prefetcher starts late.
     """
+    return types.void(plane, y, x), _prefetch_codegen
 
-    def codegen(context, builder, signature, args):
-        array_type = signature.args[0]
-        array = context.make_array(array_type)(context, builder, args[0])
-        pointer = cgutils.get_item_pointer(
-            context, builder, array_type, array, [args[1], args[2]], wraparound=False
-        )
-        byte_pointer, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
-        function = cgutils.get_or_insert_function(
-            builder.module,
-            ir.FunctionType(ir.VoidType(), [byte_pointer, i32, i32, i32]),
-            "llvm.prefetch.p0i8",
-        )
-        read, keep_in_every_level, data = (ir.Constant(i32, v) for v in (0, 3, 1))
-        address = builder.bitcast(pointer, byte_pointer)
-        builder.call(function, [address, read, keep_in_every_level, data])
-        return context.get_dummy_value()
 
-    return types.void(plane, y, x), codegen
+@intrinsic
+def prefetch_flat(typingctx, array, index):
+    """``_prefetch`` of ``array[index]`` in a 1-D array."""
+    return types.void(array, index), _prefetch_codegen
 
 
 #: float32 values in a cache line.

@@ -145,10 +145,11 @@ def tail_rank_values(flat: np.ndarray, ranks: Sequence[int]) -> list[int] | None
         visited += blocks - int(greatest_below[k])
     if 4 * visited > blocks:
         return None
-    low_counts = np.zeros(max(0, low_stop - lowest), np.int64)
-    high_counts = np.zeros(max(0, highest + 1 - high_start), np.int64)
+    low_counts = np.zeros((4, max(0, low_stop - lowest)), np.int64)
+    high_counts = np.zeros((4, max(0, highest + 1 - high_start)), np.int64)
     count_tails(flat, least, greatest, low_stop, lowest, low_counts, high_start, high_counts)
-    low_cumulative, high_cumulative = np.cumsum(low_counts), np.cumsum(high_counts)
+    low_cumulative = np.cumsum(low_counts.sum(axis=0))
+    high_cumulative = np.cumsum(high_counts.sum(axis=0))
     under_high = n - (int(high_cumulative[-1]) if high_cumulative.size else 0)
     values = []
     for r in ranks:
