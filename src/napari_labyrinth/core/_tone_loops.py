@@ -104,9 +104,9 @@ def count_tails(flat, least, greatest, low_stop, low_start, low_counts, high_sta
 
     ``low_counts[i % 4, v - low_start]`` for ``v = flat[i] < low_stop``
     (``low_start`` is the least value of ``flat``), ``high_counts[i % 4, v -
-    high_start]`` for ``v >= high_start`` (sum the four rows); only the blocks whose extremes (``block_extremes``)
-    reach a tail are read, each asked from memory a few blocks ahead (the
-    processor cannot foresee which).
+    high_start]`` for ``v >= high_start`` (sum the four rows); only the
+    blocks whose extremes (``block_extremes``) reach a tail are read, each
+    asked from memory a few blocks ahead (the processor cannot foresee which).
     """
     n = flat.shape[0]
     visited = np.empty(least.shape[0], np.intp)
