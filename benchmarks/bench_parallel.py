@@ -216,15 +216,16 @@ def tile_times(tones, parameters, tile):
     arguments = (tones, *_engine._kernel_arguments(parameters), np.uint64(0), 0, 0)
     options = (*_engine._kernel_options(parameters), False)
     counts = np.zeros(6, np.int64)
+    changes = _engine.new_changes(0)
     times = []
     for band, js in enumerate(tiles):
         row_start, row_stop = band * rows, min(height, (band + 1) * rows)
         band_times = []
         for j in js:
             start = time.thread_time()
-            labyrinth_pass(
+            labyrinth_pass(  # every argument given: numba's fast dispatch, as in _engine
                 *arguments, *options, counts, -1, row_start, row_stop, j * diagonals,
-                (j + 1) * diagonals,
+                (j + 1) * diagonals, changes, 0, -1,
             )  # fmt: skip
             band_times.append(time.thread_time() - start)
         times.append(band_times)

@@ -82,6 +82,13 @@ def test_closing_cancels_within_one_pass_and_leaves_nothing_running(camera, work
         return real(*args, **kwargs)
 
     monkeypatch.setattr(_engine, "run_pass", counting_pass)
+    real_banded = _engine._banded_pass  # integer planes on one thread each
+
+    def counting_banded_pass(*args, **kwargs):
+        calls.append(threading.current_thread().name)
+        return real_banded(*args, **kwargs)
+
+    monkeypatch.setattr(_engine, "_banded_pass", counting_banded_pass)
     stack = np.stack([data.camera()] * 8)  # ~5 ms a pass: the run takes far longer than close()
     steps = labyrinth_steps(stack, passes=4, workers=workers)
     first = next(steps)
@@ -104,6 +111,7 @@ def test_an_error_in_a_plane_reaches_the_caller_and_stops_the_pool(camera, monke
         raise MemoryError("no room")
 
     monkeypatch.setattr(_engine, "run_pass", failing_pass)
+    monkeypatch.setattr(_engine, "_banded_pass", failing_pass)  # integer planes on one thread
     with pytest.raises(MemoryError, match="no room"):
         list(labyrinth_steps(np.stack([camera] * 4), workers=2))
     assert not [t for t in threading.enumerate() if t.name.startswith("napari-labyrinth")]
@@ -214,9 +222,12 @@ def test_every_pixel_a_pass_changes_is_noted(preset, scan, workers, tile):
     assert len(listed) == counts[PUSHED] + counts[REDRAWN] + counts[OUT_OF_TRIES]
 
 
-def test_more_changes_than_noted_fall_back_to_visiting_every_pixel(monkeypatch):
+@pytest.mark.parametrize("banded", [False, True])
+def test_more_changes_than_noted_fall_back_to_visiting_every_pixel(monkeypatch, banded):
     image = (_noisy_plane((40, 50), seed=3) * 200).astype(np.uint16)
     want = labyrinth_stack(image, passes=2)
+    if not banded:
+        monkeypatch.setattr(_engine, "_banded_render", lambda *arguments: False)
     for room in (0, 1, 5):  # no room, or past it during the first or the second pass
         room_for = lambda pixels, room=room: np.zeros(room + 1, np.int64)  # noqa: E731
         monkeypatch.setattr(_engine, "new_changes", room_for)
@@ -235,3 +246,97 @@ def test_the_threads_notes_are_gathered_unless_they_do_not_fit():
     changes = np.zeros(10, np.int64)
     _engine._gather_changes(changes, [overflowed])
     assert _engine.listed_changes(changes) is None
+
+
+# Integer planes on one thread: tones made and values written band of rows by band of rows.
+
+
+def _unbanded(monkeypatch, render, *args, **kwargs):
+    """``render(*args, **kwargs)`` with the tones, passes and write-back each over the plane."""
+    with monkeypatch.context() as patched:
+        patched.setattr(_engine, "_banded_render", lambda *arguments: False)
+        return render(*args, **kwargs)
+
+
+BANDED_CASES = [
+    # dtype, tone limits, shape (W 4099: bands of 15 rows; a ring unless the plane is as short)
+    (np.uint16, None, (75, 4099)),
+    (np.uint8, None, (46, 4099)),
+    (np.uint8, (10, 200), (31, 4099)),
+    (np.int16, None, (16, 4099)),
+    (np.uint32, None, (33, 4099)),
+    (np.uint16, None, (3, 5000)),
+    (np.uint16, None, (40, 1)),
+]
+
+
+@pytest.mark.parametrize("dtype, limits, shape", BANDED_CASES)
+@pytest.mark.parametrize("preset", ["paper", "labyrinth"])
+@pytest.mark.parametrize("passes", [1, 3])
+def test_the_banded_pass_equals_the_whole_plane_path(monkeypatch, dtype, limits, shape, preset,
+                                                     passes):  # fmt: skip
+    info = np.iinfo(dtype)
+    plane = _noisy_plane(shape, seed=shape[0]) / 255.0
+    image = (info.min + plane * (min(info.max, 2**20) - info.min)).astype(dtype)
+    options = dict(preset=preset, passes=passes, tone_limits=limits, workers=1, seed=5)
+    assert _engine._banded_render(image, image, [()], resolve_parameters(preset), 1)
+    got, got_counts = labyrinth(image, return_diagnostics=True, **options)
+    want, want_counts = _unbanded(monkeypatch, labyrinth, image, return_diagnostics=True,
+                                  **options)  # fmt: skip
+    assert not np.array_equal(want, image)  # the pass changed something
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(got_counts, want_counts)
+
+
+@pytest.mark.parametrize("border", ["inside", "mirror", "nearest", "wrap"])
+@pytest.mark.parametrize("scan", ["raster", "serpentine"])
+@pytest.mark.parametrize("passes", [1, 2])
+def test_the_banded_pass_keeps_every_border_and_scan(monkeypatch, border, scan, passes):
+    image = (_noisy_plane((47, 4099), seed=2) * 200).astype(np.uint16)
+    options = dict(preset="labyrinth", passes=passes, border=border, scan=scan, workers=1)
+    want = _unbanded(monkeypatch, labyrinth, image, **options)
+    np.testing.assert_array_equal(labyrinth(image, **options), want)
+
+
+def test_stacks_and_alpha_are_banded_too(monkeypatch):
+    rng = np.random.default_rng(4)
+    stack = (_noisy_plane((3 * 40, 2100), seed=1) * 200).astype(np.uint16).reshape(3, 40, 2100)
+    want = _unbanded(monkeypatch, labyrinth_stack, stack, passes=2, workers=1)
+    np.testing.assert_array_equal(labyrinth_stack(stack, passes=2, workers=1), want)
+    # an RGBA image with its channels first: the alpha plane is copied, never rendered
+    rgba = rng.integers(0, 256, (4, 30, 2100)).astype(np.uint8)
+    options = dict(channel_axis=0, alpha=True, passes=1, workers=1, colour="channels")
+    want = _unbanded(monkeypatch, labyrinth, rgba, **options)
+    got = labyrinth(rgba, **options)
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(got[3], rgba[3])
+
+
+def test_planes_the_bands_cannot_take_take_the_whole_plane_path():
+    parameters = resolve_parameters("paper")
+    image = np.zeros((300, 300), np.uint16)
+    assert _engine._banded_render(image, image, [()], parameters, 1)
+    assert not _engine._banded_render(image, image, [()], parameters, 2)  # tiles
+    floats = image.astype(np.float32)
+    assert not _engine._banded_render(floats, floats, [()], parameters, 1)
+    checkerboard = resolve_parameters("paper", scan="checkerboard")
+    assert not _engine._banded_render(image, image, [()], checkerboard, 1)
+    strided = np.zeros((300, 600), np.uint16)[:, ::2]
+    assert not _engine._banded_render(strided, strided, [()], parameters, 1)
+    assert not _engine._banded_render(image, image, [()], resolve_parameters(passes=0), 1)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+@pytest.mark.parametrize("passes", [1, 3])
+def test_bands_with_few_changes_write_only_those(monkeypatch, dtype, passes):
+    # a photograph, enlarged: the paper's preset changes a few pixels of most bands
+    image = np.repeat(np.repeat(data.camera()[250:310], 4, axis=0), 8, axis=1).astype(dtype)
+    if dtype == np.uint16:
+        image = image * 256
+    options = dict(preset="paper", passes=passes, workers=1)
+    want = _unbanded(monkeypatch, labyrinth, image, **options)
+    assert 0 < np.count_nonzero(want != image) < image.size // 32  # under 1/16 of a band
+    np.testing.assert_array_equal(labyrinth(image, **options), want)
+    stack = np.stack([image, image[::-1]])  # every pass written out, from the same notes
+    want = _unbanded(monkeypatch, labyrinth_stack, stack, **options)
+    np.testing.assert_array_equal(labyrinth_stack(stack, **options), want)

@@ -1,5 +1,6 @@
 """Threads change the speed, never the result."""
 
+import collections
 import itertools
 import os
 import threading
@@ -321,3 +322,22 @@ def test_idle_cores_counts_at_least_one():
     from napari_labyrinth._engine import idle_cores
 
     assert 1 <= idle_cores() <= (os.cpu_count() or 1)
+
+
+def test_a_task_seen_once_does_not_take_a_core(monkeypatch):
+    from napari_labyrinth import _engine
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    if cores < 2:
+        pytest.skip("one core: nothing to take")
+    readings = iter([0, 1, 0, 1, 1, 1, 1])  # other running tasks, reading after reading
+    monkeypatch.setattr(_engine, "_other_tasks", lambda: next(readings))
+    monkeypatch.setattr(_engine, "_READINGS", collections.deque(maxlen=16))
+    monkeypatch.setattr(_engine, "_SETTLE", 0.0)
+    assert _engine.idle_cores() == cores  # alone
+    assert _engine.idle_cores() == cores  # a task now, none a moment ago: a passing one
+    assert _engine.idle_cores() == cores  # alone again
+    assert _engine.idle_cores() == cores  # a task, none at the last reading
+    assert _engine.idle_cores() == cores - 1  # a task now and at the last reading: busy
+    monkeypatch.setattr(_engine, "_READINGS", collections.deque(maxlen=16))
+    assert _engine.idle_cores() == cores - 1  # no earlier reading: two readings, both busy

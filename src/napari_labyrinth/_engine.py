@@ -10,6 +10,7 @@ argument checking and presets belong to the API.
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import functools
 import heapq
@@ -18,6 +19,7 @@ import math
 import os
 import queue
 import threading
+import time
 from collections.abc import Generator
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
@@ -29,6 +31,8 @@ from .core.parameters import LabyrinthParameters
 from .core.planes import PlaneLayout
 from .core.tone_scale import (
     ToneScale,
+    banded_scale_arguments,
+    fits_banded_pass,
     integer_plane_tones,
     write_changed_values,
     write_listed_values,
@@ -93,12 +97,13 @@ def render(
     the image after every pass, and the diagnostics in the image's layout.
     """
     passes = parameters.passes
-    result, targets = _allocate(image, layout, passes, record_passes)
     source = layout.to_planes(image)
     leading = layout.leading_shape
     counts = _diagnostic_counts(layout, passes)
     planes = list(layout.rendered_indices())
     plane_workers = max(1, min(workers, len(planes)))
+    banded = _banded_render(image, source, planes, parameters, max(1, workers // plane_workers))
+    result, targets = _allocate(image, layout, passes, record_passes, written_whole=banded)
     stop = threading.Event()
 
     def passes_of(index):
@@ -106,6 +111,27 @@ def render(
         if not passes:
             return
         values = source[index]
+        if banded:  # tones in and values out, band of rows by band of rows
+            work = _banded_tones(values.shape, passes == 1 and not record_passes, parameters)
+            changes = new_changes(values.size)
+            for pass_index in range(passes):
+                if stop.is_set():
+                    return
+                write_out = record_passes or pass_index == passes - 1
+                _banded_pass(
+                    values,
+                    targets[pass_index if record_passes else 0][index] if write_out else None,
+                    work,
+                    scale,
+                    parameters,
+                    seed=seed,
+                    plane_index=layout.stream_index(index),
+                    pass_index=pass_index,
+                    counts=counts[(pass_index,) + index],
+                    changes=changes,
+                )
+                yield pass_index + 1
+            return
         # integer planes: tones in one pass, and no copy of them kept (see _write_back)
         work = integer_plane_tones(scale, values)
         initial = changes = None
@@ -149,15 +175,86 @@ def render(
     return result, np.ascontiguousarray(diagnostics)
 
 
-def _allocate(image: np.ndarray, layout: PlaneLayout, passes: int, record_passes: bool):
+def _allocate(
+    image: np.ndarray,
+    layout: PlaneLayout,
+    passes: int,
+    record_passes: bool,
+    *,
+    written_whole: bool = False,
+):
     """The result (a copy of the image, or the input and a copy per pass) and, in the
-    layout of planes, where each pass (or the last) is written."""
+    layout of planes, where each pass (or the last) is written.
+
+    ``written_whole``: the passes write every pixel of the planes they render
+    (the banded pass), so only the others (alpha) are copied there.
+    """
     if record_passes:
         result = np.empty((passes + 1,) + image.shape, dtype=image.dtype)
-        result[...] = image
-        return result, [layout.to_planes(result[k]) for k in range(1, passes + 1)]
-    result = image.copy()
-    return result, [layout.to_planes(result)]
+        if written_whole:
+            result[0] = image
+        else:
+            result[...] = image
+        targets = [layout.to_planes(result[k]) for k in range(1, passes + 1)]
+    else:
+        result = np.empty(image.shape, image.dtype) if written_whole else image.copy()
+        targets = [layout.to_planes(result)]
+    if written_whole:
+        source = layout.to_planes(image)
+        for index in np.ndindex(layout.leading_shape):
+            if layout.is_alpha(index):
+                for target in targets:
+                    target[index] = source[index]
+    return result, targets
+
+
+def _banded_render(image, source, planes, parameters, plane_threads) -> bool:
+    """Whether every plane renders on one thread by ``_banded_pass``: integer planes that
+    are C-contiguous, in an order of rows (not the checkerboard), not in tiles."""
+    if not parameters.passes or not planes or image.dtype.kind not in "iu":
+        return False
+    if parameters.scan == "checkerboard":
+        return False
+    if plane_threads > 1 and exact_order_refusal(parameters) is None:
+        shape = source.shape[-2:]
+        if math.prod(shape) >= MIN_PARALLEL_PIXELS and shape[0] > default_tile(shape, 2)[0]:
+            return False  # the plane's passes may run in tiles on several threads
+    return all(fits_banded_pass(source[index]) for index in planes)
+
+
+def _banded_tones(shape, only_pass, parameters) -> np.ndarray:
+    """The float32 tones ``_banded_pass`` updates: a ring of one band of rows and the rows
+    around it for the only pass of a plane (any border but "wrap"), else a whole plane."""
+    from .core._banded_pass import band_rows
+
+    rows = band_rows(shape[1]) + 2
+    if only_pass and parameters.border != "wrap" and rows < shape[0]:
+        return np.empty((rows, shape[1]), dtype=np.float32)
+    return np.empty(shape, dtype=np.float32)
+
+
+def _banded_pass(
+    values, target, work, scale, parameters, *, seed, plane_index, pass_index, counts, changes
+) -> None:
+    """One pass of ``core._banded_pass.banded_pass`` over ``work``, the tones of ``values``:
+    made in the first pass, and the values written into ``target`` unless it is None."""
+    from .core._banded_pass import banded_pass  # numba is imported on first use only
+
+    banded_pass(
+        values,
+        values if target is None else target,  # not written to without write_out
+        work,
+        pass_index == 0,
+        target is not None,
+        *banded_scale_arguments(scale, values.dtype),
+        *_kernel_arguments(parameters),
+        np.uint64(seed),
+        plane_index,
+        pass_index,
+        *_kernel_options(parameters),
+        counts,
+        changes,
+    )
 
 
 def _diagnostic_counts(layout: PlaneLayout, passes: int) -> np.ndarray:
@@ -264,8 +361,9 @@ def run_pass(
                     labyrinth_pass, arguments, options, counts, rows, diagonals, workers, changes
                 )
                 return counts
-    # every call gives every argument: one compiled kernel serves all of them
-    labyrinth_pass(*arguments, *options, counts, -1, 0, -1, 0, -1, changes)
+    # every call gives every argument: one compiled kernel serves all of them, and
+    # numba's dispatcher takes its fast path (an omitted argument costs ~90 µs a call)
+    labyrinth_pass(*arguments, *options, counts, -1, 0, -1, 0, -1, changes, *_WHOLE_PLANE)
     return counts
 
 
@@ -308,6 +406,9 @@ def _gather_changes(changes: np.ndarray, parts: list[np.ndarray]) -> None:
         changes[0] = written + len(listed)
 
 
+#: ``labyrinth_pass``'s ``row_offset`` and ``plane_height`` for a plane held whole.
+_WHOLE_PLANE = (0, -1)
+
 #: Planes with fewer pixels run on one thread: the tiles would cost more than they gain.
 MIN_PARALLEL_PIXELS = 256 * 256
 
@@ -319,15 +420,49 @@ def idle_cores() -> int:
     caller is one of them). The tiles of one plane wait on each other: a tile
     thread that shares its core with a busy task holds up the others, and
     two threads on one free core run slower than one thread, so a pass takes
-    no more threads than there are idle cores. Elsewhere: every core.
+    no more threads than there are idle cores. A count is an instant: a task
+    that runs for a moment (a kernel thread, a short command) would cost a
+    whole pass its threads. So a core counts as busy only if another task ran
+    in two readings at least ``_SETTLE`` seconds apart: the last reading of
+    the previous ``_MEMORY`` seconds that is old enough, or else a second
+    reading taken ``_SETTLE`` seconds later (only when the first saw a task).
+    Elsewhere: every core.
     """
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    cores = cores or 1
+    others = _other_tasks()
+    if others is None:
+        return cores
+    now = time.monotonic()
+    earlier = [seen for at, seen in _READINGS if _SETTLE <= now - at <= _MEMORY]
+    _READINGS.append((now, others))
+    if others and not earlier:  # nothing to compare with: look again a moment later
+        time.sleep(_SETTLE)
+        again = _other_tasks()
+        _READINGS.append((time.monotonic(), others if again is None else again))
+        earlier = [others if again is None else again]
+    return max(1, cores - min(others, earlier[-1] if earlier else others))
+
+
+#: Seconds between two readings of ``idle_cores`` that must both see a task.
+_SETTLE = 0.002
+
+#: Seconds during which ``idle_cores`` uses a reading of an earlier call.
+_MEMORY = 1.0
+
+#: ``(time.monotonic(), other tasks)`` of the last readings of ``idle_cores``.
+_READINGS: collections.deque = collections.deque(maxlen=16)
+
+
+def _other_tasks() -> int | None:
+    """Tasks that run or wait to run now besides the caller (``/proc/loadavg``); None
+    where it cannot be read."""
     try:
         with open("/proc/loadavg", encoding="ascii") as loadavg:
             running = int(loadavg.read().split()[3].split("/")[0])
     except (OSError, ValueError, IndexError):
-        return cores or 1
-    return max(1, (cores or 1) - (running - 1))
+        return None
+    return max(0, running - 1)
 
 
 def exact_order_refusal(parameters: LabyrinthParameters) -> str | None:
@@ -451,7 +586,7 @@ def _exact_order(
                     j = tiles[band][position[band]]
                 labyrinth_pass(
                     *head, own_counts, -1, band * rows, min(height, (band + 1) * rows),
-                    j * diagonals, (j + 1) * diagonals, own_changes,
+                    j * diagonals, (j + 1) * diagonals, own_changes, *_WHOLE_PLANE,
                 )  # fmt: skip
         except BaseException as error:  # noqa: BLE001 - raised in the caller's thread
             with changed:
@@ -495,14 +630,15 @@ def _checkerboard_bands(
     for colour in range(4):  # the pixels of one colour are independent of each other
         if len(bands) == 2:
             labyrinth_pass(
-                *arguments, *options, band_counts[0], colour, 0, height, 0, -1, band_changes[0]
-            )
+                *arguments, *options, band_counts[0], colour, 0, height, 0, -1, band_changes[0],
+                *_WHOLE_PLANE,
+            )  # fmt: skip
             continue
         with ThreadPoolExecutor(len(bands) - 1) as pool:
             for future in [
                 pool.submit(
                     labyrinth_pass, *arguments, *options, band_counts[k], colour, start, stop,
-                    0, -1, band_changes[k],
+                    0, -1, band_changes[k], *_WHOLE_PLANE,
                 )  # fmt: skip
                 for k, (start, stop) in enumerate(zip(bands[:-1], bands[1:]))
             ]:

@@ -36,6 +36,7 @@ def warm_up() -> None:
     stripes = np.where(np.cos(np.pi * np.indices((256, 256))[1] / 2) > 0, 230, 30).T
     for dtype in WARMED_DTYPES:
         rendered = labyrinth(stripes.astype(dtype), passes=1, workers=2)
+        labyrinth(stripes.astype(dtype), passes=1, workers=1)  # integers: the banded pass
     labyrinth(np.stack([stripes] * 3, axis=-1).astype(np.uint8), channel_axis=-1, passes=1)
     metrics.describe(stripes.astype(np.float32), rendered.astype(np.float32))
 

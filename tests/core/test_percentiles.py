@@ -88,3 +88,51 @@ def test_counting_in_four_tables_counts_every_value_once(size):
     counts = np.zeros(256, np.int64)
     count_values(values, 0, counts)
     np.testing.assert_array_equal(counts, np.bincount(values, minlength=256))
+
+
+# The tails of low and high ranks, counted in the few blocks that may hold them.
+
+from napari_labyrinth.core.percentiles import linear_ranks, tail_rank_values  # noqa: E402
+
+
+def test_a_photograph_takes_the_tail_route_and_equals_numpy():
+    from skimage import data
+
+    # at 4 x the width (as a larger photograph): few blocks of 64 values reach a tail
+    values = np.repeat(data.camera()[:, :501], 4, axis=1).astype(np.uint16) * 256 + 17
+    values = values[:, :-3]  # the last block of values is shorter
+    ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
+    got = tail_rank_values(values.reshape(-1), ranks)
+    assert got is not None
+    assert got == [int(v) for v in np.sort(values, axis=None)[ranks]]
+    assert_numpy_percentiles(values, DEFAULT_PERCENTILES)
+
+
+def test_noise_is_counted_whole():
+    values = np.random.default_rng(2).integers(0, 65536, (256, 256)).astype(np.uint16)
+    ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
+    assert tail_rank_values(values.reshape(-1), ranks) is None  # most blocks reach a tail
+    assert_numpy_percentiles(values, DEFAULT_PERCENTILES)
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    st.sampled_from(SMALL_INTEGERS),
+    st.integers(1, 5000),
+    st.integers(0, 2**32 - 1),
+    st.floats(0, 1),
+    st.lists(st.floats(0, 100), min_size=1, max_size=4),
+)
+def test_tail_ranks_are_the_sorted_values(dtype, size, seed, noise, q):
+    # smooth ramps with some noise and runs of equal values: tails of any shape
+    rng = np.random.default_rng(seed)
+    info = np.iinfo(dtype)
+    ramp = np.cumsum(rng.normal(0, 1, size)) * rng.uniform(1, 300)
+    ramp += noise * rng.normal(0, 2000, size) * (rng.random(size) < noise)
+    values = np.clip(np.rint(ramp + rng.uniform(info.min, info.max)), info.min, info.max)
+    values = values.astype(dtype)
+    ranks, _ = linear_ranks(size, q)
+    got = tail_rank_values(values, ranks)
+    if got is not None:
+        assert got == [int(v) for v in np.sort(values)[ranks]]
+    assert_numpy_percentiles(values, q)

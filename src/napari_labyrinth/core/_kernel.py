@@ -44,6 +44,25 @@ _MIX2 = np.uint64(0x94D049BB133111EB)
 _UNIT = 1.0 / 9007199254740992.0  # 2**-53
 
 
+def _prefetch_codegen(context, builder, signature, args):
+    """``llvm.prefetch`` of the element of ``args[0]`` at the indices ``args[1:]``."""
+    array_type = signature.args[0]
+    array = context.make_array(array_type)(context, builder, args[0])
+    pointer = cgutils.get_item_pointer(
+        context, builder, array_type, array, list(args[1:]), wraparound=False
+    )
+    byte_pointer, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
+    function = cgutils.get_or_insert_function(
+        builder.module,
+        ir.FunctionType(ir.VoidType(), [byte_pointer, i32, i32, i32]),
+        "llvm.prefetch.p0i8",
+    )
+    read, keep_in_every_level, data = (ir.Constant(i32, v) for v in (0, 3, 1))
+    address = builder.bitcast(pointer, byte_pointer)
+    builder.call(function, [address, read, keep_in_every_level, data])
+    return context.get_dummy_value()
+
+
 @intrinsic
 def _prefetch(typingctx, plane, y, x):
     """Ask the processor to bring ``plane[y, x]``'s cache line in (``llvm.prefetch``).
@@ -51,25 +70,13 @@ def _prefetch(typingctx, plane, y, x):
     A hint, with no effect on any value: a tile's row segments start on new
     lines of memory, where the processor's own prefetcher starts late.
     """
+    return types.void(plane, y, x), _prefetch_codegen
 
-    def codegen(context, builder, signature, args):
-        array_type = signature.args[0]
-        array = context.make_array(array_type)(context, builder, args[0])
-        pointer = cgutils.get_item_pointer(
-            context, builder, array_type, array, [args[1], args[2]], wraparound=False
-        )
-        byte_pointer, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
-        function = cgutils.get_or_insert_function(
-            builder.module,
-            ir.FunctionType(ir.VoidType(), [byte_pointer, i32, i32, i32]),
-            "llvm.prefetch.p0i8",
-        )
-        read, keep_in_every_level, data = (ir.Constant(i32, v) for v in (0, 3, 1))
-        address = builder.bitcast(pointer, byte_pointer)
-        builder.call(function, [address, read, keep_in_every_level, data])
-        return context.get_dummy_value()
 
-    return types.void(plane, y, x), codegen
+@intrinsic
+def prefetch_flat(typingctx, array, index):
+    """``_prefetch`` of ``array[index]`` in a 1-D array."""
+    return types.void(array, index), _prefetch_codegen
 
 
 #: float32 values in a cache line.
@@ -161,12 +168,14 @@ def _interior_squares(plane, y, x, mean):
 
 
 @njit(inline="always")
-def _gather(plane, y, x, border, neighbours):
+def _gather(plane, y, x, border, neighbours, height, row_offset):
     """Collect the finite neighbours that count at a border or near a non-finite pixel.
 
-    Returns their number and their sum (row-major order, as ``_interior_sum``).
+    ``y`` is a row of a plane of ``height`` rows, held in ``plane`` from row
+    ``row_offset`` on (see ``labyrinth_pass``). Returns their number and
+    their sum (row-major order, as ``_interior_sum``).
     """
-    height, width = plane.shape
+    width = plane.shape[1]
     count = 0
     total = 0.0
     for dy in range(-1, 2):
@@ -179,7 +188,7 @@ def _gather(plane, y, x, border, neighbours):
             xx = _border_index(x + dx, width, border)
             if xx < 0:
                 continue
-            value = np.float64(plane[yy, xx])
+            value = np.float64(plane[yy - row_offset, xx])
             if math.isfinite(value):
                 neighbours[count] = value
                 total += value
@@ -362,7 +371,8 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
                    max_tries, seed, plane_index, pass_index, border, variance_ratio,
                    variance_action, condition_order, on_exhausted, scan, include_centre,
                    has_nonfinite, counts, colour=-1, row_start=0, row_stop=-1,
-                   diagonal_start=0, diagonal_stop=-1, changes=None):  # fmt: skip
+                   diagonal_start=0, diagonal_stop=-1, changes=None, row_offset=0,
+                   plane_height=-1):  # fmt: skip
     """Run one pass of the algorithm over ``plane`` in place (Eq. 1-4).
 
     Parameters
@@ -395,6 +405,11 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
         indices ``y * W + x`` follow it (so that the write-back of a few
         changes need not visit the whole plane). A pixel written to the
         tone it had is noted too.
+    row_offset, plane_height : int, optional
+        ``plane`` holds only the rows ``row_offset, row_offset + 1, ...`` of a
+        plane of ``plane_height`` rows (-1: ``plane`` is the whole plane): a
+        band of rows with the rows around it that the pass reads. Rows,
+        random streams and borders are those of the whole plane.
 
     Notes
     -----
@@ -403,7 +418,8 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
     ``condition_order`` and ``include_centre``; every other pixel takes the
     full path below it. Both agree with ``_reference.py`` bit for bit.
     """
-    height, width = plane.shape
+    width = plane.shape[1]
+    height = plane.shape[0] if plane_height < 0 else plane_height
     key = stream_key(seed, plane_index, pass_index)
     neighbours = np.empty(8, dtype=np.float64)
     variance_first = condition_order == VARIANCE_FIRST
@@ -421,11 +437,12 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
         interior_row = not has_nonfinite and 0 < y < height - 1
         x_start = max(x_first, diagonal_start - y)
         x_stop = width if diagonal_stop < 0 else min(width, diagonal_stop - y)
-        if diagonal_stop >= 0 and y + 2 < height:
+        row = y - row_offset  # the row's place in ``plane``
+        if diagonal_stop >= 0 and row + 2 < plane.shape[0]:
             # a tile: the row below the next one, which that row's segment
             # (one pixel to the left) reads, is not yet in the cache
             for x_ahead in range(max(0, x_start - 2), min(width, x_stop), _LINE):
-                _prefetch(plane, y + 2, x_ahead)
+                _prefetch(plane, row + 2, x_ahead)
         # interior pixels that Eq. 2 keeps (Eq. 4 first: that keeps) run in a
         # tight loop of their own (_kept_run); the others take the full path
         fast_row = interior_row and not reverse and colour < 0
@@ -441,22 +458,22 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
                 if variance_first:
                     if include_centre:
                         x_next = _kept_run(
-                            plane, y, x, fast_stop, mean_threshold, variance_threshold,
+                            plane, row, x, fast_stop, mean_threshold, variance_threshold,
                             True, variance_ratio, True,
                         )  # fmt: skip
                     else:
                         x_next = _kept_run(
-                            plane, y, x, fast_stop, mean_threshold, variance_threshold,
+                            plane, row, x, fast_stop, mean_threshold, variance_threshold,
                             True, variance_ratio, False,
                         )  # fmt: skip
                 elif include_centre:
                     x_next = _kept_run(
-                        plane, y, x, fast_stop, mean_threshold, variance_threshold,
+                        plane, row, x, fast_stop, mean_threshold, variance_threshold,
                         False, variance_ratio, True,
                     )  # fmt: skip
                 else:
                     x_next = _kept_run(
-                        plane, y, x, fast_stop, mean_threshold, variance_threshold,
+                        plane, row, x, fast_stop, mean_threshold, variance_threshold,
                         False, variance_ratio, False,
                     )  # fmt: skip
                 if x_next > x:
@@ -464,7 +481,7 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
                     step += x_next - x - 1
                     not_kept = x_next
                     continue
-            g = np.float64(plane[y, x])
+            g = np.float64(plane[row, x])
             if not math.isfinite(g):
                 skipped += 1
                 continue
@@ -473,9 +490,9 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
             # read them straight from the plane, the others gather them.
             interior = interior_row and 0 < x < width - 1
             if interior:
-                count, neighbour_sum = 8, _interior_sum(plane, y, x)
+                count, neighbour_sum = 8, _interior_sum(plane, row, x)
             else:
-                count, neighbour_sum = _gather(plane, y, x, border, neighbours)
+                count, neighbour_sum = _gather(plane, y, x, border, neighbours, height, row_offset)
                 if count == 0:
                     skipped += 1
                     continue
@@ -495,7 +512,7 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
 
             # Eq. 4: the variance condition.
             if interior:
-                squares = _interior_squares(plane, y, x, mean)
+                squares = _interior_squares(plane, row, x, mean)
             else:
                 squares = _gathered_squares(neighbours, count, mean)
             if include_centre:
@@ -518,7 +535,7 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
                     range_bounds, tone_low, tone_high, max_tries,
                 )  # fmt: skip
                 if pushed:
-                    plane[y, x] = draw
+                    plane[row, x] = draw
                     _note_written(changes, y * width + x)
                     pushed_count += 1
                 else:
@@ -534,13 +551,13 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
                 _mix(key ^ np.uint64(y * width + x)), range_bounds, tone_low, tone_high, max_tries,
             )  # fmt: skip
             if accepted:
-                plane[y, x] = draw
+                plane[row, x] = draw
                 _note_written(changes, y * width + x)
                 redrawn += 1
             else:
                 exhausted += 1
                 if on_exhausted != KEEP and max_tries > 0:
-                    plane[y, x] = draw
+                    plane[row, x] = draw
                     _note_written(changes, y * width + x)
     counts[KEPT_BY_MEAN] += kept
     counts[LEFT_BY_VARIANCE] += left

@@ -2,6 +2,8 @@
 
 - ``count_values``: the histogram of 8- and 16-bit integers, from which
   ``percentiles.integer_percentiles`` takes the default tone limits exactly;
+- ``block_extremes`` and ``count_tails``: the same limits from the few
+  blocks of values that can hold them (``percentiles`` says when);
 - ``integer_tones``: the 0-255 tones of a plane, as ``ToneScale.to_tones``;
 - ``write_back``: the values of the tones that changed, as
   ``ToneScale.from_tones``, written over the source values in place, with no
@@ -20,6 +22,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from ._kernel import prefetch_flat
 
 
 @njit(cache=True, nogil=True)
@@ -54,6 +58,86 @@ def _count_block(flat, offset, counts):
     for k in range(size):
         counts[k] += np.int64(first[k]) + np.int64(second[k]) + np.int64(third[k])
         counts[k] += np.int64(fourth[k])
+
+
+#: Values in a block of ``block_extremes``: few, so that the tails' blocks are few.
+EXTREMES_BLOCK = 64
+
+
+@njit(inline="always")
+def _extremes(chunk, size):
+    """The least and greatest of ``chunk[:size]`` (a known ``size``: a vector reduction)."""
+    low = high = chunk[0]
+    for i in range(size):
+        low = min(low, chunk[i])
+        high = max(high, chunk[i])
+    return low, high
+
+
+@njit(cache=True, nogil=True)
+def block_extremes(flat, offset, shift, below, above):
+    """The least and greatest value of every ``EXTREMES_BLOCK`` values of ``flat``.
+
+    Returns ``(least, greatest)``, one entry a block (the last may be
+    shorter). ``below[k]`` is incremented for every block whose least value
+    lies in the coarse bin k, ``(v - offset) >> shift``, ``above[k]`` for
+    every block whose greatest value does.
+    """
+    n = flat.shape[0]
+    blocks = (n + EXTREMES_BLOCK - 1) // EXTREMES_BLOCK
+    least, greatest = np.empty(blocks, flat.dtype), np.empty(blocks, flat.dtype)
+    for b in range(blocks):
+        chunk = flat[b * EXTREMES_BLOCK : (b + 1) * EXTREMES_BLOCK]
+        if chunk.shape[0] == EXTREMES_BLOCK:
+            least[b], greatest[b] = _extremes(chunk, EXTREMES_BLOCK)
+        else:
+            least[b], greatest[b] = _extremes(chunk, chunk.shape[0])
+    for b in range(blocks):
+        below[(np.intp(least[b]) - offset) >> shift] += 1
+        above[(np.intp(greatest[b]) - offset) >> shift] += 1
+    return least, greatest
+
+
+@njit(cache=True, nogil=True)
+def count_tails(flat, least, greatest, low_stop, low_start, low_counts, high_start, high_counts):
+    """Count the values below ``low_stop`` and those from ``high_start`` on.
+
+    ``low_counts[i % 4, v - low_start]`` for ``v = flat[i] < low_stop``
+    (``low_start`` is the least value of ``flat``), ``high_counts[i % 4, v -
+    high_start]`` for ``v >= high_start`` (sum the four rows); only the
+    blocks whose extremes (``block_extremes``) reach a tail are read, each
+    asked from memory a few blocks ahead (the processor cannot foresee which).
+    """
+    n = flat.shape[0]
+    visited = np.empty(least.shape[0], np.intp)
+    count = 0
+    for b in range(least.shape[0]):
+        visited[count] = b
+        count += np.intp(least[b]) < low_stop or np.intp(greatest[b]) >= high_start
+    for k in range(count):
+        if k + _AHEAD < count:
+            ahead = visited[k + _AHEAD] * EXTREMES_BLOCK
+            prefetch_flat(flat, ahead)
+            prefetch_flat(flat, min(n - 1, ahead + EXTREMES_BLOCK - 1))
+        b = visited[k]
+        start = b * EXTREMES_BLOCK
+        stop = min(n, start + EXTREMES_BLOCK)
+        # four tables take every fourth value (as count_values): a run of equal
+        # values does not wait on its own increments
+        if np.intp(least[b]) < low_stop:
+            for i in range(start, stop):
+                value = np.intp(flat[i])
+                if value < low_stop:
+                    low_counts[i & 3, value - low_start] += 1
+        if np.intp(greatest[b]) >= high_start:
+            for i in range(start, stop):
+                value = np.intp(flat[i])
+                if value >= high_start:
+                    high_counts[i & 3, value - high_start] += 1
+
+
+#: Blocks ``count_tails`` asks from memory ahead of the one it counts.
+_AHEAD = 8
 
 
 @njit(inline="always")

@@ -252,6 +252,24 @@ def write_listed_values(
     )  # fmt: skip
 
 
+def banded_scale_arguments(scale: ToneScale, dtype: np.dtype) -> tuple[Any, ...]:
+    """The tone scale as ``_banded_pass.banded_pass`` takes it, for integers of ``dtype``:
+    uint8 on (0, 255), the scale as ``write_changed_values`` passes it, the dtype's range."""
+    info = np.iinfo(dtype)
+    return (
+        _is_paper_scale(scale, dtype),
+        *_loop_scale(scale, dtype),
+        float(info.min),
+        float(info.max),
+    )
+
+
+def fits_banded_pass(values: np.ndarray) -> bool:
+    """Whether ``values`` is a plane ``_banded_pass.banded_pass`` takes (C-contiguous
+    2-D integers)."""
+    return _fused(values)
+
+
 def _is_paper_scale(scale: ToneScale, dtype: np.dtype) -> bool:
     """uint8 values on the scale (0, 255): each value is its own tone."""
     return np.dtype(dtype) == np.uint8 and (scale.low, scale.high) == (0.0, 255.0)

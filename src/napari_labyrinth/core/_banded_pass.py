@@ -1,0 +1,223 @@
+"""One pass over an integer plane, band of rows by band of rows: tones in, values out.
+
+``labyrinth_pass`` updates a float32 plane of tones. For an integer plane
+on one thread, ``banded_pass`` makes the tones of a band of rows just
+before the kernel reaches them and writes the values of the rows the
+kernel has finished just after, while both are still in the processor's
+cache: one sweep over the image's memory instead of three (tones, pass,
+write-back), and no copy of the image made first. A row is finished once
+the kernel has passed it: no later pixel writes to it (a pixel writes only
+itself), they only read it.
+
+The results are those of ``_tone_loops.integer_tones``, then
+``labyrinth_pass`` over the whole plane, then ``_tone_loops.write_back``
+(``rounded_tones`` for uint8 on the scale (0, 255)), bit for bit: the same
+kernel runs over the same plane in the same order, one band of rows after
+the other (``tests/test_engine.py`` checks it for every scan but the
+checkerboard, which visits the plane four times and is not banded).
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ._kernel import labyrinth_pass
+from ._tone_loops import _tone
+from .codes import WRAP
+
+#: Bytes of tones in a band: with its values, well inside a core's own cache.
+_BAND_BYTES = 1 << 18
+
+
+@njit(cache=True)
+def band_rows(width):
+    """Rows of a band of a plane ``width`` pixels wide."""
+    return max(4, _BAND_BYTES // (4 * max(1, width)))
+
+
+@njit(cache=True, nogil=True)
+def banded_pass(values, target, tones, tones_in, write_out, paper_uint8, low, gain, low32, gain32,
+                wide, lowest, highest, mean_threshold, variance_threshold, range_bounds, tone_low,
+                tone_high, max_tries, seed, plane_index, pass_index, border, variance_ratio,
+                variance_action, condition_order, on_exhausted, scan, include_centre, counts,
+                changes):  # fmt: skip
+    """One pass of ``labyrinth_pass`` over the tones of the integer plane ``values``.
+
+    Parameters
+    ----------
+    values : (H, W) integer C-contiguous array
+        The plane's values before the passes (never written).
+    target : (H, W) array of the dtype of ``values``
+        With ``write_out``, every pixel gets its value after this pass: the
+        value of the source where its tone did not change, else
+        ``rint(tone / gain + low)`` clipped to ``[lowest, highest]``
+        (``ToneScale.from_tones``).
+    tones : (H, W) or (band_rows(W) + 2, W) float32 C-contiguous array
+        The tones the pass updates in place; with ``tones_in`` it need hold
+        nothing: each row gets the tone of its values just before the kernel
+        reads it (``ToneScale.to_tones``). With ``tones_in`` and
+        ``write_out`` (the only pass of a render) it may be a ring of one
+        band and the rows above and below it, which the bands take in turn:
+        the tones never leave the cache (any border but ``"wrap"``).
+    tones_in, write_out, paper_uint8 : bool
+        Make the tones; write the values; uint8 on the scale (0, 255), where
+        a tone is its value (every one is rounded back, nothing compared).
+    low, gain, low32, gain32, wide, lowest, highest
+        The tone scale as ``_tone_loops.write_back`` takes it.
+    mean_threshold, ..., include_centre, counts
+        As ``labyrinth_pass`` takes them (a plane of integers is finite),
+        any scan but the checkerboard.
+    changes : (1 + capacity,) int64 array
+        The pixels the passes write, as ``labyrinth_pass`` notes them (zero
+        before the first pass): with a ring, those of each band in turn; with
+        a whole plane, those of every pass so far. Where they are few, the
+        source values are copied and only they are written.
+    """
+    height, width = values.shape
+    ring = tones.shape[0] < height
+    rows = tones.shape[0] - 2 if ring else band_rows(width)
+    made = 0  # rows whose tones are made
+    # a whole plane that changed little so far: its values are written after the pass
+    deferred = write_out and not ring and not paper_uint8 and 32 * changes[0] < height * width
+    # the only pass, a ring: the source values copied into the target with the tones
+    copied = ring and write_out and not paper_uint8
+    if tones_in and border == WRAP and height > 1:  # row 0 reads the last row
+        _make_tones(values, tones, height - 1, height, 0, low, gain, low32, gain32, wide)
+    for band_start in range(0, height, rows):
+        band_stop = min(height, band_start + rows)
+        # ``tones`` holds the rows from ``offset`` on: the ring, from the row above the band
+        offset = band_start - 1 if ring else 0
+        if ring and band_start > 0:  # the last row of the band above, and the band's first
+            for k in range(2):
+                for x in range(width):
+                    tones[k, x] = tones[rows + k, x]
+        if tones_in:  # the band and the row below it, which the band's last row reads
+            ahead = min(height, band_stop + 1)
+            if copied:  # and the source values into the target, where few will change
+                _make_tones_and_copy(values, tones, target, made, ahead, offset, low, gain, low32,
+                                     gain32, wide)  # fmt: skip
+            else:
+                _make_tones(values, tones, made, ahead, offset, low, gain, low32, gain32, wide)
+            made = ahead
+        if ring:
+            changes[0] = 0
+        labyrinth_pass(
+            tones, mean_threshold, variance_threshold, range_bounds, tone_low, tone_high,
+            max_tries, seed, plane_index, pass_index, border, variance_ratio, variance_action,
+            condition_order, on_exhausted, scan, include_centre, False, counts, -1, band_start,
+            band_stop, 0, -1, changes, offset, height,
+        )  # fmt: skip
+        if write_out and not deferred:
+            _write_band(target, values, tones, band_start, band_stop, offset, changes, ring,
+                        paper_uint8, copied, low, gain, low32, gain32, wide, lowest,
+                        highest)  # fmt: skip
+    if deferred:
+        _write_band(target, values, tones, 0, height, 0, changes, True, False, False, low, gain,
+                    low32, gain32, wide, lowest, highest)  # fmt: skip
+
+
+@njit(nogil=True)
+def _write_band(target, values, tones, row_start, row_stop, offset, changes, listed, paper_uint8,
+                copied, low, gain, low32, gain32, wide, lowest, highest):  # fmt: skip
+    """The values of the rows ``row_start <= y < row_stop`` (tones at ``tones[y - offset]``):
+    if ``listed`` and ``changes`` holds few pixels (all that changed there), the source
+    values (unless ``copied`` there already) and those; else every pixel compared."""
+    if paper_uint8:
+        _rounded_rows(target, tones, row_start, row_stop, offset)
+        return
+    written = changes[0]
+    pixels = (row_stop - row_start) * values.shape[1]
+    if listed and written < changes.shape[0] and 16 * written < pixels:
+        if not copied:
+            _copy_rows(target, values, row_start, row_stop)
+        _write_listed(target, values, tones, changes[1 : written + 1], offset, low, gain, low32,
+                      gain32, wide, lowest, highest)  # fmt: skip
+    else:
+        _write_rows(target, values, tones, row_start, row_stop, offset, low, gain, low32, gain32,
+                    wide, lowest, highest)  # fmt: skip
+
+
+@njit(nogil=True)
+def _make_tones(values, tones, row_start, row_stop, offset, low, gain, low32, gain32, wide):
+    """``integer_tones`` of the rows ``row_start <= y < row_stop``, into ``tones[y - offset]``."""
+    width = values.shape[1]
+    if wide:  # the test out of the loop: the loop over a row runs on vector registers
+        for y in range(row_start, row_stop):
+            for x in range(width):
+                tones[y - offset, x] = _tone(values[y, x], low, gain, low32, gain32, True)
+    else:
+        for y in range(row_start, row_stop):
+            for x in range(width):
+                tones[y - offset, x] = _tone(values[y, x], low, gain, low32, gain32, False)
+
+
+@njit(nogil=True)
+def _make_tones_and_copy(values, tones, target, row_start, row_stop, offset, low, gain, low32,
+                         gain32, wide):  # fmt: skip
+    """``_make_tones``, and the rows' values copied into ``target`` in the same loop."""
+    width = values.shape[1]
+    for y in range(row_start, row_stop):
+        if wide:
+            for x in range(width):
+                value = values[y, x]
+                target[y, x] = value
+                tones[y - offset, x] = _tone(value, low, gain, low32, gain32, True)
+        else:
+            for x in range(width):
+                value = values[y, x]
+                target[y, x] = value
+                tones[y - offset, x] = _tone(value, low, gain, low32, gain32, False)
+
+
+@njit(nogil=True)
+def _copy_rows(target, values, row_start, row_stop):
+    """``target[row_start:row_stop] = values[row_start:row_stop]``, as a plain loop."""
+    width = values.shape[1]
+    for y in range(row_start, row_stop):
+        for x in range(width):
+            target[y, x] = values[y, x]
+
+
+@njit(nogil=True)
+def _write_rows(target, values, tones, row_start, row_stop, offset, low, gain, low32, gain32,
+                wide, lowest, highest):  # fmt: skip
+    """Every pixel of the rows: its source value, or the value of its changed tone
+    (``tones[y - offset]``)."""
+    width = values.shape[1]
+    for y in range(row_start, row_stop):
+        for x in range(width):
+            tone = tones[y - offset, x]
+            source = values[y, x]
+            before = _tone(source, low, gain, low32, gain32, wide)
+            # the same bits (+0 and -0 differ): the pixel did not change
+            if tone == before and math.copysign(1.0, tone) == math.copysign(1.0, before):
+                target[y, x] = source
+            else:
+                target[y, x] = min(max(np.rint(np.float64(tone) / gain + low), lowest), highest)
+
+
+@njit(nogil=True)
+def _write_listed(target, values, tones, indices, offset, low, gain, low32, gain32, wide, lowest,
+                  highest):  # fmt: skip
+    """The value of the changed tone (``tones[y - offset]``) at the pixels of flat
+    ``indices`` (repeats allowed)."""
+    width = values.shape[1]
+    for index in indices:
+        y, x = index // width, index % width
+        tone = tones[y - offset, x]
+        before = _tone(values[y, x], low, gain, low32, gain32, wide)
+        if tone == before and math.copysign(1.0, tone) == math.copysign(1.0, before):
+            continue
+        target[y, x] = min(max(np.rint(np.float64(tone) / gain + low), lowest), highest)
+
+
+@njit(nogil=True)
+def _rounded_rows(target, tones, row_start, row_stop, offset):
+    """``_tone_loops.rounded_tones`` of the rows ``row_start <= y < row_stop``
+    (``tones[y - offset]``)."""
+    width = tones.shape[1]
+    for y in range(row_start, row_stop):
+        for x in range(width):
+            tone = min(max(tones[y - offset, x], np.float32(0.0)), np.float32(255.0))
+            target[y, x] = np.uint8(np.rint(tone))
