@@ -25,6 +25,12 @@ branch, as ``before``), so both pay the same first-call costs. Besides the
 wall time, each call's CPU time (all threads) is recorded: CPU / wall near
 the number of cores means the call used them all.
 
+After the timings each tree reports the numpy arrays a first call leaves
+(``tracemalloc``, bytes per pixel: the memory a first call touches for the
+first time, whose page faults are system time), and the run prints the
+kernel's transparent huge page settings: with ``defrag`` at ``madvise``, a
+first touch of numpy's large arrays may wait for the kernel to compact memory.
+
 Run: ``python benchmarks/bench_metrics.py [--against /path/to/main] [--sizes 512 2048 4096]
 [--rounds 3]``. The reference takes about a minute per call at 4096 x 4096 on two cores.
 """
@@ -104,6 +110,7 @@ def child(sizes) -> None:
         wall, cpu, _ = timed(metrics.describe, original, rendered)
         rows.append((size, "describe()", wall, cpu))
         rows.append((size, "values", result, None))
+        rows.append((size, "bytes per pixel", _first_call_bytes(original, rendered), None))
     for size in sizes:
         calls = [
             timed(lambda o, r: metrics.Comparison(o).describe(r), original, rendered)[:2]
@@ -112,6 +119,29 @@ def child(sizes) -> None:
         wall, cpu = np.mean(calls, axis=0).tolist()
         rows.append((size, "new originals", wall, cpu))
     print(json.dumps({"source": str(Path(metrics.__file__).parent), "rows": rows}))
+
+
+def _first_call_bytes(original, rendered) -> float:
+    """Bytes per pixel of the numpy arrays that a first call leaves (its maps)."""
+    import tracemalloc
+
+    from napari_labyrinth import metrics
+
+    comparison = metrics.Comparison(original)
+    tracemalloc.start()
+    comparison.describe(rendered)
+    kept = tracemalloc.get_traced_memory()[0]
+    tracemalloc.stop()
+    return kept / original.size
+
+
+def _huge_pages() -> str:
+    """The kernel's transparent huge page settings (Linux), as ``enabled / defrag``."""
+    base = Path("/sys/kernel/mm/transparent_hugepage")
+    try:
+        return " / ".join((base / name).read_text().strip() for name in ("enabled", "defrag"))
+    except OSError:
+        return "unknown"
 
 
 def run_child(tree: Path, sizes) -> dict:
@@ -146,6 +176,7 @@ def main(argv=None) -> None:
     planes = cases(args.sizes)
     times: dict[tuple[str, int, str], list[tuple[float, float]]] = {}
     values: dict[tuple[str, int], dict] = {}
+    memory: dict[tuple[str, int], float] = {}
     for round_number in range(args.rounds):
         load = os.getloadavg()
         print(f"round {round_number + 1}/{args.rounds}, load average {load}", flush=True)
@@ -157,6 +188,8 @@ def main(argv=None) -> None:
             for size, mode, wall, cpu in report["rows"]:
                 if mode == "values":
                     values[(name, size)] = wall
+                elif mode == "bytes per pixel":
+                    memory[(name, size)] = wall
                 else:
                     times.setdefault((name, size, mode), []).append((wall, cpu))
         for size, (original, rendered) in planes.items():
@@ -169,6 +202,7 @@ def main(argv=None) -> None:
                 time.sleep(1.0)  # let BLAS's worker threads (np.corrcoef) go back to sleep
 
     print(f"\nload average at the end {os.getloadavg()}, {os.cpu_count()} cores")
+    print(f"transparent huge pages (enabled / defrag): {_huge_pages()}")
     print("best of the rounds, per call: wall seconds, CPU seconds (all threads; on a loaded")
     print("machine the CPU time says more about the work than the wall time), CPU / wall")
     print("(x: wall-time speed-up over the reference;")
@@ -197,6 +231,10 @@ def main(argv=None) -> None:
             extra = min(times[(name, size, "first pass")])[0]
             extra -= min(times[(name, size, "next passes")])[0]
             cells.append(f"{name} {extra:.3f} s")
+        print(f"  {size:>5} x {size:<5} " + ", ".join(cells))
+    print("\nnumpy arrays a first call leaves (its maps), bytes per pixel:")
+    for size in planes:
+        cells = [f"{name} {memory[(name, size)]:.1f}" for name in trees]
         print(f"  {size:>5} x {size:<5} " + ", ".join(cells))
     print("\nlargest relative difference from the reference over the metrics:")
     for size in planes:
