@@ -270,7 +270,9 @@ def bench_bare_add(viewer, size: int, repeats: int) -> list[dict]:
             gap.longest = 0.0
             QTimer.singleShot(0, add)
             _events(0.6)
-        runs.append({"adding": marks["adding"], "gap_showing": gap.longest, "drawing": draw.longest})
+        runs.append(
+            {"adding": marks["adding"], "gap_showing": gap.longest, "drawing": draw.longest}
+        )
     for layer in [layer for layer in viewer.layers if layer.name != f"{size}"]:
         viewer.layers.remove(layer)
         _events(0.05)

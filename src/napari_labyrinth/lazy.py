@@ -30,10 +30,10 @@ from typing import Any
 
 import numpy as np
 
+from ._budget import refuse_unaffordable
 from ._engine import render, run_to_end
 from .core.colour import TONES, LuminancePlanes, luminance, luminance_for_limits
 from .core.parameters import LabyrinthParameters
-from ._budget import refuse_unaffordable
 from .core.percentiles import lerp, linear_ranks
 from .core.planes import (
     PlaneLayout,

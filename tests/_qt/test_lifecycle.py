@@ -74,7 +74,9 @@ def test_leaving_after_the_rendering_but_before_the_result_is_shown_adds_nothing
         worker.start()
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
     qtbot.wait(50)
-    assert [layer.name for layer in viewer.layers] == ([] if leave == "remove the input" else ["cell"])
+    assert [layer.name for layer in viewer.layers] == (
+        [] if leave == "remove the input" else ["cell"]
+    )
 
 
 def test_a_new_result_layer_is_added_hidden_and_shown_in_a_later_turn(qtbot, viewer, widget):
@@ -137,9 +139,7 @@ def test_a_run_of_the_same_input_and_mode_replaces_the_previous_result(qtbot, vi
     assert sum(layer.name.startswith("cell · labyrinth") for layer in viewer.layers) == 2
 
 
-def test_a_result_that_cannot_hold_the_new_data_is_replaced_by_a_new_layer(
-    qtbot, viewer, widget
-):
+def test_a_result_that_cannot_hold_the_new_data_is_replaced_by_a_new_layer(qtbot, viewer, widget):
     """A stack has one more axis than the result of a single run: no update in place."""
     from napari_labyrinth._qt.worker import add_result_layer
 

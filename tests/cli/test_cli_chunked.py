@@ -374,7 +374,14 @@ def test_streamed_percentiles_equal_numpy_bit_for_bit(monkeypatch, dtype, gather
 
 @pytest.mark.parametrize(
     "offset, span",
-    [(0.0, 1e-310), (0.0, 5e-320), (-3e-308, 1e-308), (1e-300, 1e-300), (1.0, 1e-15), (0.0, 1e-250)],
+    [
+        (0.0, 1e-310),
+        (0.0, 5e-320),
+        (-3e-308, 1e-308),
+        (1e-300, 1e-300),
+        (1.0, 1e-15),
+        (0.0, 1e-250),
+    ],
 )
 @pytest.mark.parametrize("gather_limit", [1 << 18, 3])
 def test_streamed_percentiles_of_values_closer_than_normal_floats(

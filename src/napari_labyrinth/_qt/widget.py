@@ -438,9 +438,9 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         """
         plan, outcome, self._outcome = self._plan, self._outcome, None
         layer = None
-        if outcome is not None and plan is not None and not plan.cancel.is_set():
-            if not self._closed:
-                layer = self._show_outcome(plan, outcome)
+        wanted = plan is not None and not plan.cancel.is_set() and not self._closed
+        if outcome is not None and wanted:
+            layer = self._show_outcome(plan, outcome)
         if layer is not None and not layer.visible:  # a new layer, added hidden
             QTimer.singleShot(NEXT_TURN_MS, lambda: self._reveal(layer))
         else:

@@ -169,14 +169,12 @@ def _scheduler_file_address(path: str) -> str:
             content = json.load(file)
     except (OSError, ValueError) as exc:
         raise Failed(
-            f"--scheduler: {path} is not a dask scheduler file (JSON with an \"address\"): "
+            f'--scheduler: {path} is not a dask scheduler file (JSON with an "address"): '
             f"{describe(exc, path)}"
         ) from None
     address = content.get("address") if isinstance(content, dict) else None
     if not isinstance(address, str) or not address:
-        raise Failed(
-            f"--scheduler: {path} is not a dask scheduler file: it has no \"address\""
-        )
+        raise Failed(f'--scheduler: {path} is not a dask scheduler file: it has no "address"')
     return address
 
 
