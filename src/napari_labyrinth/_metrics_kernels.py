@@ -1104,7 +1104,7 @@ def _tensor_tile(
     plane, scale, weights, mode, needed, tile_index, x0, x1, y0, y1, out0, out1, out2, out3
 ):
     """:func:`orientation_band` on the output columns ``[x0, x1)`` (column tile ``tile_index``)."""
-    height, width = plane.shape
+    height = plane.shape[0]
     doubled_height = 2 * height
     radius = weights.shape[0] - 1
     ring_rows = 2 * radius + 1
@@ -1134,29 +1134,10 @@ def _tensor_tile(
         last_row = min(centre + radius, doubled_height - 1)
         while next_row <= last_row:
             i = next_row
-            for k in range(3):
-                r = i - 1 + k
-                if r < 0 or r >= doubled_height:
-                    slots[k] = 3
-                    continue
-                slot = r % 3
-                if row_of_slot[slot] != r:
-                    _doubled_row(plane, scale, r, origin, line, rows_e[slot], rows_o[slot])
-                    row_of_slot[slot] = r
-                slots[k] = slot
-            _tensor_products(
-                rows_e[slots[0]],
-                rows_o[slots[0]],
-                rows_e[slots[1]],
-                rows_o[slots[1]],
-                rows_e[slots[2]],
-                rows_o[slots[2]],
-                origin,
-                width,
-                work,
-                products_e,
-                products_o,
-            )
+            _doubled_products(
+                plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work,
+                products_e, products_o,
+            )  # fmt: skip
             for c in range(3):
                 _gauss_even(products_e[c], products_o[c], pad, weights, ring[c, i % ring_rows])
             next_row += 1
@@ -1342,7 +1323,7 @@ def _decimated_tile(
     plane, scale, weights, needed, tile_index, x0, x1, y0, y1, out0, out1, out2, out3
 ):
     """:func:`decimated_tensor_band` on the output columns ``[x0, x1)`` (tile ``tile_index``)."""
-    height, width = plane.shape
+    height = plane.shape[0]
     radius = weights.shape[0] - 1
     ring_rows = 2 * radius + 1
     zero_slot = ring_rows
