@@ -62,7 +62,9 @@ def banded_pass(values, target, tones, tones_in, write_out, paper_uint8, low, ga
         the tones never leave the cache (any border but ``"wrap"``).
     tones_in, write_out, paper_uint8 : bool
         Make the tones; write the values; uint8 on the scale (0, 255), where
-        a tone is its value (every one is rounded back, nothing compared).
+        a tone is its value (in a whole plane every one is rounded back,
+        nothing compared; in a ring the values are copied with the tones and
+        the changed ones written, as for any other scale).
     low, gain, low32, gain32, wide, lowest, highest
         The tone scale as ``_tone_loops.write_back`` takes it.
     mean_threshold, ..., include_centre, counts
@@ -81,7 +83,8 @@ def banded_pass(values, target, tones, tones_in, write_out, paper_uint8, low, ga
     # a whole plane that changed little so far: its values are written after the pass
     deferred = write_out and not ring and not paper_uint8 and 32 * changes[0] < height * width
     # the only pass, a ring: the source values copied into the target with the tones
-    copied = ring and write_out and not paper_uint8
+    # (uint8 on (0, 255) too: a copy and the few changes cost less than rounding every tone)
+    copied = ring and write_out
     if tones_in and border == WRAP and height > 1:  # row 0 reads the last row
         _make_tones(values, tones, height - 1, height, 0, low, gain, low32, gain32, wide)
     for band_start in range(0, height, rows):
@@ -123,7 +126,7 @@ def _write_band(target, values, tones, row_start, row_stop, offset, changes, lis
     """The values of the rows ``row_start <= y < row_stop`` (tones at ``tones[y - offset]``):
     if ``listed`` and ``changes`` holds few pixels (all that changed there), the source
     values (unless ``copied`` there already) and those; else every pixel compared."""
-    if paper_uint8:
+    if paper_uint8 and not copied:
         _rounded_rows(target, tones, row_start, row_stop, offset)
         return
     written = changes[0]
