@@ -251,6 +251,15 @@ def test_the_threads_notes_are_gathered_unless_they_do_not_fit():
 # Integer planes on one thread: tones made and values written band of rows by band of rows.
 
 
+@pytest.fixture
+def narrow_bands(monkeypatch):
+    """Bands of 2**18 bytes of tones (15 rows at W 4099, 31 at W 2100): the planes below
+    hold several bands, and a ring, as large planes do with the default bands."""
+    from napari_labyrinth.core import _banded_pass
+
+    monkeypatch.setattr(_banded_pass, "band_rows", lambda width: max(4, (1 << 18) // (4 * width)))
+
+
 def _unbanded(monkeypatch, render, *args, **kwargs):
     """``render(*args, **kwargs)`` with the tones, passes and write-back each over the plane."""
     with monkeypatch.context() as patched:
@@ -270,6 +279,7 @@ BANDED_CASES = [
 ]
 
 
+@pytest.mark.usefixtures("narrow_bands")
 @pytest.mark.parametrize("dtype, limits, shape", BANDED_CASES)
 @pytest.mark.parametrize("preset", ["paper", "labyrinth"])
 @pytest.mark.parametrize("passes", [1, 3])
@@ -288,6 +298,7 @@ def test_the_banded_pass_equals_the_whole_plane_path(monkeypatch, dtype, limits,
     np.testing.assert_array_equal(got_counts, want_counts)
 
 
+@pytest.mark.usefixtures("narrow_bands")
 @pytest.mark.parametrize("border", ["inside", "mirror", "nearest", "wrap"])
 @pytest.mark.parametrize("scan", ["raster", "serpentine"])
 @pytest.mark.parametrize("passes", [1, 2])
@@ -298,6 +309,7 @@ def test_the_banded_pass_keeps_every_border_and_scan(monkeypatch, border, scan, 
     np.testing.assert_array_equal(labyrinth(image, **options), want)
 
 
+@pytest.mark.usefixtures("narrow_bands")
 def test_stacks_and_alpha_are_banded_too(monkeypatch):
     rng = np.random.default_rng(4)
     stack = (_noisy_plane((3 * 40, 2100), seed=1) * 200).astype(np.uint16).reshape(3, 40, 2100)
@@ -330,6 +342,7 @@ def test_planes_the_bands_cannot_take_take_the_whole_plane_path():
 @pytest.mark.parametrize("passes", [1, 3])
 def test_bands_with_few_changes_write_only_those(monkeypatch, dtype, passes):
     # a photograph, enlarged: the paper's preset changes a few pixels of most bands
+    # (240 x 4096: the default bands, 64 rows, four of them in a ring)
     image = np.repeat(np.repeat(data.camera()[250:310], 4, axis=0), 8, axis=1).astype(dtype)
     if dtype == np.uint16:
         image = image * 256

@@ -238,12 +238,13 @@ def _banded_pass(
 ) -> None:
     """One pass of ``core._banded_pass.banded_pass`` over ``work``, the tones of ``values``:
     made in the first pass, and the values written into ``target`` unless it is None."""
-    from .core._banded_pass import banded_pass  # numba is imported on first use only
+    from .core._banded_pass import band_rows, banded_pass  # numba is imported on first use only
 
     banded_pass(
         values,
         values if target is None else target,  # not written to without write_out
         work,
+        band_rows(values.shape[1]),
         pass_index == 0,
         target is not None,
         *banded_scale_arguments(scale, values.dtype),
