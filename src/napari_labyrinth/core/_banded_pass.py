@@ -27,7 +27,7 @@ from ._tone_loops import _tone
 from .codes import WRAP
 
 #: Bytes of tones in a band: with its values, inside a core's own (level 2) cache. Each
-#: band costs a kernel call of a few µs: at 2048² (paper, one pass) bands of 128 rows
+#: band costs a few µs beyond its rows: at 2048² (paper, one pass) bands of 128 rows
 #: take 0.2-0.3 ms less than bands of 32 (2**18 bytes), 2**21 bytes no less than 2**20.
 _BAND_BYTES = 1 << 20
 
@@ -40,9 +40,9 @@ def band_rows(width: int) -> int:
 @njit(cache=True, nogil=True)
 def banded_pass(values, target, tones, rows, tones_in, write_out, paper_uint8, low, gain, low32,
                 gain32, wide, lowest, highest, mean_threshold, variance_threshold, range_bounds,
-                tone_low, tone_high, max_tries, seed, plane_index, pass_index, border, variance_ratio,
-                variance_action, condition_order, on_exhausted, scan, include_centre, counts,
-                changes):  # fmt: skip
+                tone_low, tone_high, max_tries, seed, plane_index, pass_index, border,
+                variance_ratio, variance_action, condition_order, on_exhausted, scan,
+                include_centre, counts, changes):  # fmt: skip
     """One pass of ``labyrinth_pass`` over the tones of the integer plane ``values``.
 
     Parameters
