@@ -82,6 +82,9 @@ def prefetch_flat(typingctx, array, index):
 #: float32 values in a cache line.
 _LINE = 16
 
+#: Cache lines at the start of a tile's row segment asked for ahead of the kernel.
+_AHEAD_LINES = 4
+
 
 @njit(inline="always")
 def _mix(x):
@@ -440,8 +443,11 @@ def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone
         row = y - row_offset  # the row's place in ``plane``
         if diagonal_stop >= 0 and row + 2 < plane.shape[0]:
             # a tile: the row below the next one, which that row's segment
-            # (one pixel to the left) reads, is not yet in the cache
-            for x_ahead in range(max(0, x_start - 2), min(width, x_stop), _LINE):
+            # (one pixel to the left) reads, is not yet in the cache; its first
+            # lines only: the processor's own prefetcher follows the rest (asking
+            # for every line cost a single tile over the plane ~5 % more time)
+            ahead_stop = min(width, x_stop, x_start - 2 + _AHEAD_LINES * _LINE)
+            for x_ahead in range(max(0, x_start - 2), ahead_stop, _LINE):
                 _prefetch(plane, row + 2, x_ahead)
         # interior pixels that Eq. 2 keeps (Eq. 4 first: that keeps) run in a
         # tight loop of their own (_kept_run); the others take the full path
