@@ -93,7 +93,7 @@ def compare_threads(tones, parameters, repeats, thread_counts):
     variants = {"serial": lambda t: run_pass(t, parameters, has_nonfinite=False)}
     for workers in thread_counts:
         if workers == 1:  # the tiles' own cost: forced onto one thread
-            tile = default_tile(tones.shape, workers)
+            tile = default_tile(tones.shape, workers, parameters)
             variants["1 thr"] = lambda t, tile=tile: tiled_pass(t, parameters, 1, tile)
         else:  # as labyrinth() runs them: default tiles, no more threads than idle cores
             variants[f"{workers} thr"] = lambda t, w=workers: run_pass(
@@ -124,7 +124,8 @@ def print_threads(title, tones, parameters, repeats, thread_counts):
     )
     for name, runs in times.items():
         workers = 1 if name == "serial" else int(name.split()[0])
-        tile = "-" if name == "serial" else "%dx%d" % default_tile(tones.shape, workers)
+        tile = default_tile(tones.shape, workers, parameters)
+        tile = "-" if name == "serial" else "%dx%d" % tile
         best, median = min(runs), np.median(runs)
         print(
             f"{name:<10}{tile:>10}{best * 1e3:>9.1f}{tones.size / best / 1e6:>8.0f}"
@@ -289,7 +290,7 @@ def bench_model(sizes, repeats):
                 time.thread_time,
             )
             for workers in (1, 2, 4, 8, 16):
-                tile = default_tile(tones.shape, workers)
+                tile = default_tile(tones.shape, workers, parameters)
                 best = None
                 for _ in range(max(2, repeats // 2)):  # the fastest run of each tile
                     tiles, times = tile_times(tones.copy(), parameters, tile)

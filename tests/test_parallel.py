@@ -268,6 +268,26 @@ def test_a_large_plane_uses_the_tiles_by_default_with_the_same_result(monkeypatc
     assert calls == [3, 3]  # below MIN_PARALLEL_PIXELS: one thread
 
 
+def test_a_mean_first_pass_takes_bands_twice_as_tall_with_the_same_result(monkeypatch):
+    from napari_labyrinth import _engine
+
+    monkeypatch.setattr(_engine, "idle_cores", lambda: 8)
+    rows = []
+    real = _engine._exact_order
+    monkeypatch.setattr(
+        _engine, "_exact_order", lambda *args: rows.append(args[4]) or real(*args)
+    )
+    image = (textured_plane((600, 300), seed=5) * 200).astype(np.uint16)
+    for preset in ("paper", "labyrinth"):
+        one = labyrinth(image, preset=preset, workers=1, return_diagnostics=True)
+        two = labyrinth(image, preset=preset, workers=2, return_diagnostics=True)
+        np.testing.assert_array_equal(two[0], one[0])
+        np.testing.assert_array_equal(two[1], one[1])
+    # 600 rows on 2 threads: 8 bands a thread (600 // 16) for the paper's mean-first
+    # pass, 16 (600 // 32) for the labyrinth preset's variance-first one, each pass
+    assert rows == [37] + [18] * 4
+
+
 def test_padded_counts_give_each_thread_whole_cache_lines():
     from napari_labyrinth._engine import padded_counts
 
