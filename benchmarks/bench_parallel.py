@@ -41,6 +41,10 @@ import time
 import numpy as np
 
 
+#: The presets the sections measure by default (``--presets``).
+PRESETS = ("labyrinth", "paper")
+
+
 def load():
     return "load %.2f %.2f %.2f" % os.getloadavg()
 
@@ -100,27 +104,30 @@ def compare_threads(tones, parameters, repeats, thread_counts):
                 t, parameters, has_nonfinite=False, workers=w
             )
     seconds = {name: [] for name in variants}
+    cpu = {name: [] for name in variants}  # of every thread of the process
     same = dict.fromkeys(variants, True)
     for _ in range(repeats):
         for name, run in variants.items():
             work = tones.copy()
-            start = time.perf_counter()
+            start, start_cpu = time.perf_counter(), time.process_time()
             counts = run(work)
+            cpu[name].append(time.process_time() - start_cpu)
             seconds[name].append(time.perf_counter() - start)
             same[name] &= np.array_equal(work.view(np.uint32), reference.view(np.uint32))
             same[name] &= np.array_equal(counts, reference_counts)
-    return seconds, same
+    return seconds, cpu, same
 
 
 def print_threads(title, tones, parameters, repeats, thread_counts):
     from napari_labyrinth._engine import default_tile
 
-    times, same = compare_threads(tones, parameters, repeats, thread_counts)
+    times, cpu, same = compare_threads(tones, parameters, repeats, thread_counts)
     serial, serial_median = min(times["serial"]), np.median(times["serial"])
+    serial_cpu = min(cpu["serial"])
     print(title)
     print(
         f"{'variant':<10}{'tile':>10}{'best ms':>9}{'Mpx/s':>8}{'vs serial':>11}"
-        f"{'median ms':>11}{'vs serial':>11}{'same':>6}"
+        f"{'median ms':>11}{'vs serial':>11}{'CPU ms':>8}{'CPU +%':>8}{'same':>6}"
     )
     for name, runs in times.items():
         workers = 1 if name == "serial" else int(name.split()[0])
@@ -130,11 +137,15 @@ def print_threads(title, tones, parameters, repeats, thread_counts):
         print(
             f"{name:<10}{tile:>10}{best * 1e3:>9.1f}{tones.size / best / 1e6:>8.0f}"
             f"{serial / best:>10.2f}x{median * 1e3:>11.1f}{serial_median / median:>10.2f}x"
+            f"{min(cpu[name]) * 1e3:>8.1f}{100 * (min(cpu[name]) / serial_cpu - 1):>+8.1f}"
             f"{'yes' if same[name] else 'NO':>6}"
         )
     from napari_labyrinth._engine import idle_cores
 
-    print(f"({load()}; idle cores seen by labyrinth() now: {idle_cores()})")
+    print(
+        f"({load()}; idle cores seen by labyrinth() now: {idle_cores()}; CPU: best process"
+        " CPU time of all threads, +% over the serial pass: for 1 thr the tiles' own cost)"
+    )
 
 
 @contextlib.contextmanager
@@ -149,11 +160,11 @@ def busy_core():
         process.wait()
 
 
-def bench_exact(sizes, repeats, cores):
+def bench_exact(sizes, repeats, cores, presets=PRESETS):
     from napari_labyrinth import resolve_parameters
 
     thread_counts = sorted({1, 2, cores})
-    for preset in ("labyrinth", "paper"):
+    for preset in presets:
         parameters = resolve_parameters(preset)
         for size in sizes:
             tones = tones_of(size)
@@ -168,12 +179,12 @@ def bench_exact(sizes, repeats, cores):
             print()
 
 
-def bench_loaded(repeats, cores):
+def bench_loaded(repeats, cores, presets=PRESETS):
     from napari_labyrinth import resolve_parameters
 
     tones = tones_of(2048)
     with busy_core() as process:
-        for preset in ("labyrinth", "paper"):
+        for preset in presets:
             print_threads(
                 f"exact order, 2048^2, preset {preset!r}, while process {process.pid} keeps a "
                 "core busy",
@@ -185,21 +196,29 @@ def bench_loaded(repeats, cores):
             print()
 
 
-def bench_tiles(repeats):
+def bench_tiles(repeats, presets=PRESETS):
     from napari_labyrinth import resolve_parameters
     from napari_labyrinth._engine import run_pass
 
     tones = tones_of(2048)
-    for preset in ("labyrinth", "paper"):
+    repeats = max(3, repeats)
+    for preset in presets:
         parameters = resolve_parameters(preset)
-        serial, _ = timed(lambda: run_pass(tones.copy(), parameters, has_nonfinite=False), 3)
+        serial, _ = timed(
+            lambda: run_pass(tones.copy(), parameters, has_nonfinite=False), repeats
+        )
         diagonals = (64, 128, 256, 512, 1024)
-        print(f"tile sizes, 2048^2, preset {preset!r}, 2 threads: speed-up over the serial pass")
+        print(
+            f"tile sizes, 2048^2, preset {preset!r}, 2 threads: speed-up over the serial pass"
+            f" (best of {repeats})"
+        )
         print(f"{'rows | diagonals':<18}" + "".join(f"{d:>8}" for d in diagonals))
         for rows in (8, 16, 32, 64, 128):
             line = f"{rows:<18}"
             for d in diagonals:
-                seconds, _ = timed(lambda: tiled_pass(tones.copy(), parameters, 2, (rows, d)), 3)
+                seconds, _ = timed(
+                    lambda: tiled_pass(tones.copy(), parameters, 2, (rows, d)), repeats
+                )
                 line += f"{serial / seconds:>7.2f}x"
             print(line)
         print(f"({load()})")
@@ -386,16 +405,20 @@ def main(argv=None):
     parser.add_argument("--planes", type=int, default=200)
     parser.add_argument("--size", type=int, default=1024)
     parser.add_argument("--big", type=int, default=8192)
+    parser.add_argument(
+        "--presets", nargs="+", choices=PRESETS, default=list(PRESETS),
+        help="presets of the exact, loaded and tiles sections",
+    )  # fmt: skip
     args = parser.parse_args(argv)
     cores = os.cpu_count() or 1
     print(f"{cores} cores, {load()}")
     print()
     if "exact" in args.sections:
-        bench_exact((2048, args.big), args.repeats, cores)
+        bench_exact((2048, args.big), args.repeats, cores, args.presets)
     if "loaded" in args.sections:
-        bench_loaded(args.repeats, cores)
+        bench_loaded(args.repeats, cores, args.presets)
     if "tiles" in args.sections:
-        bench_tiles(args.repeats)
+        bench_tiles(args.repeats, args.presets)
     if "model" in args.sections:
         bench_model((2048, args.big), args.repeats)
     if "stack" in args.sections:
