@@ -136,6 +136,80 @@ def count_tails(flat, least, greatest, low_stop, low_start, low_counts, high_sta
                     high_counts[i & 3, value - high_start] += 1
 
 
+@njit(cache=True, nogil=True)
+def tail_values(flat, offset, shift, bins, ranks, values):
+    """``percentiles.tail_rank_values`` in one call: True and the values of ``ranks`` in
+    ``values``, or False when the blocks that may hold them are more than a quarter.
+
+    ``offset`` is the least value of the dtype, ``shift`` the coarse bins' shift
+    and ``bins`` their number (``((greatest value - offset) >> shift) + 1``).
+    Each step is that of the Python reading it replaced, in integers: the
+    same bounds, the same blocks counted, the same values.
+    """
+    n, block = flat.shape[0], EXTREMES_BLOCK
+    below, above = np.zeros(bins, np.int64), np.zeros(bins, np.int64)
+    least, greatest = block_extremes(flat, offset, shift, below, above)
+    blocks, full = least.shape[0], n // block
+    below_full, above_full = below.copy(), above.copy()
+    if full < blocks:  # the last block is shorter: it holds at least one value
+        below_full[(np.intp(least[blocks - 1]) - offset) >> shift] -= 1
+        above_full[(np.intp(greatest[blocks - 1]) - offset) >> shift] -= 1
+    # index k: the blocks whose extreme lies below the bound offset + (k << shift)
+    least_below, greatest_below = np.zeros(bins + 1, np.int64), np.zeros(bins + 1, np.int64)
+    surely_below, surely_from = np.zeros(bins + 1, np.int64), np.zeros(bins + 1, np.int64)
+    above_full_below = below_full_below = 0
+    surely_from[0] = (block - 1) * full + blocks
+    for k in range(bins):
+        least_below[k + 1] = least_below[k] + below[k]
+        greatest_below[k + 1] = greatest_below[k] + above[k]
+        above_full_below += above_full[k]
+        below_full_below += below_full[k]
+        surely_below[k + 1] = (block - 1) * above_full_below + least_below[k + 1]
+        surely_from[k + 1] = (block - 1) * (full - below_full_below) + blocks
+        surely_from[k + 1] -= greatest_below[k + 1]
+    highest_low, lowest_high = -1, n  # the highest rank of the low tail, the lowest of the high
+    for r in ranks:
+        if 2 * r < n:
+            highest_low = max(highest_low, r)
+        else:
+            lowest_high = min(lowest_high, r)
+    lowest, highest = np.intp(least.min()), np.intp(greatest.max())
+    low_stop, high_start = lowest, highest + 1  # empty tails
+    visited = 0
+    if highest_low >= 0:  # the least bound below which highest_low + 1 values surely lie
+        k = np.searchsorted(surely_below, highest_low + 1, side="left")
+        if k > bins:
+            return False
+        low_stop = offset + (k << shift)
+        visited += least_below[k]
+    if lowest_high < n:  # the greatest bound from which n - lowest_high values surely lie
+        k = bins
+        while k >= 0 and surely_from[k] < n - lowest_high:
+            k -= 1
+        if k < 0:
+            return False
+        high_start = offset + (k << shift)
+        visited += blocks - greatest_below[k]
+    if 4 * visited > blocks:
+        return False
+    low_counts = np.zeros((4, max(0, low_stop - lowest)), np.int64)
+    high_counts = np.zeros((4, max(0, highest + 1 - high_start)), np.int64)
+    count_tails(flat, least, greatest, low_stop, lowest, low_counts, high_start, high_counts)
+    low_cumulative = np.cumsum(low_counts[0] + low_counts[1] + low_counts[2] + low_counts[3])
+    high_cumulative = np.cumsum(
+        high_counts[0] + high_counts[1] + high_counts[2] + high_counts[3]
+    )
+    under_high = n - (high_cumulative[-1] if high_cumulative.shape[0] else 0)
+    for i in range(ranks.shape[0]):
+        r = ranks[i]
+        if 2 * r < n:
+            values[i] = np.searchsorted(low_cumulative, r, side="right") + lowest
+        else:
+            values[i] = np.searchsorted(high_cumulative, r - under_high, side="right")
+            values[i] += high_start
+    return True
+
+
 #: Blocks ``count_tails`` asks from memory ahead of the one it counts.
 _AHEAD = 8
 

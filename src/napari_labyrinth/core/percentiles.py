@@ -105,57 +105,13 @@ def tail_rank_values(flat: np.ndarray, ranks: Sequence[int]) -> list[int] | None
     likewise). Only the blocks that reach a tail are then counted
     (``count_tails``): exact, whatever the values.
     """
-    from ._tone_loops import EXTREMES_BLOCK, block_extremes, count_tails  # numba on first use
+    from ._tone_loops import tail_values  # numba is imported on first use only
 
-    n, block = flat.shape[0], EXTREMES_BLOCK
     info = np.iinfo(flat.dtype)
     offset = int(info.min)
     shift = max(0, flat.dtype.itemsize * 8 - _COARSE_BITS)
-    bins = (int(info.max) - offset >> shift) + 1
-    below, above = np.zeros(bins, np.int64), np.zeros(bins, np.int64)
-    least, greatest = block_extremes(flat, offset, shift, below, above)
-    blocks, full = least.shape[0], n // block
-    below_full, above_full = below.copy(), above.copy()
-    if full < blocks:  # the last block is shorter: it holds at least one value
-        below_full[int(least[-1]) - offset >> shift] -= 1
-        above_full[int(greatest[-1]) - offset >> shift] -= 1
-    # index k: the blocks whose extreme lies below the bound offset + (k << shift)
-    least_below = np.concatenate(([0], np.cumsum(below)))
-    greatest_below = np.concatenate(([0], np.cumsum(above)))
-    surely_below = (block - 1) * np.concatenate(([0], np.cumsum(above_full))) + least_below
-    surely_from = (block - 1) * (full - np.concatenate(([0], np.cumsum(below_full))))
-    surely_from += blocks - greatest_below
-    low = [r for r in ranks if 2 * r < n]
-    high = [r for r in ranks if 2 * r >= n]
-    lowest, highest = int(least.min()), int(greatest.max())
-    low_stop, high_start = lowest, highest + 1  # empty tails
-    visited = 0
-    if low:
-        k = int(np.searchsorted(surely_below, max(low) + 1, side="left"))
-        if k > bins:
-            return None
-        low_stop = offset + (k << shift)
-        visited += int(least_below[k])
-    if high:
-        # surely_from does not increase with k: the last k where it holds n - min(high)
-        k = int(np.searchsorted(-surely_from, -(n - min(high)), side="right")) - 1
-        if k < 0:
-            return None
-        high_start = offset + (k << shift)
-        visited += blocks - int(greatest_below[k])
-    if 4 * visited > blocks:
+    values = np.empty(len(ranks), np.int64)
+    bins = ((int(info.max) - offset) >> shift) + 1
+    if not tail_values(flat, offset, shift, bins, np.asarray(ranks, np.int64), values):
         return None
-    low_counts = np.zeros((4, max(0, low_stop - lowest)), np.int64)
-    high_counts = np.zeros((4, max(0, highest + 1 - high_start)), np.int64)
-    count_tails(flat, least, greatest, low_stop, lowest, low_counts, high_start, high_counts)
-    low_cumulative = np.cumsum(low_counts.sum(axis=0))
-    high_cumulative = np.cumsum(high_counts.sum(axis=0))
-    under_high = n - (int(high_cumulative[-1]) if high_cumulative.size else 0)
-    values = []
-    for r in ranks:
-        if 2 * r < n:
-            values.append(int(np.searchsorted(low_cumulative, r, side="right")) + lowest)
-        else:
-            values.append(int(np.searchsorted(high_cumulative, r - under_high, side="right"))
-                          + high_start)  # fmt: skip
-    return values
+    return [int(v) for v in values]
