@@ -3,7 +3,8 @@
 - ``count_values``: the histogram of 8- and 16-bit integers, from which
   ``percentiles.integer_percentiles`` takes the default tone limits exactly;
 - ``block_extremes`` and ``count_tails``: the same limits from the few
-  blocks of values that can hold them (``percentiles`` says when);
+  blocks of values that can hold them (``percentiles`` says when), both
+  run, with the steps between them, by ``tail_values``;
 - ``integer_tones``: the 0-255 tones of a plane, as ``ToneScale.to_tones``;
 - ``write_back``: the values of the tones that changed, as
   ``ToneScale.from_tones``, written over the source values in place, with no
