@@ -288,6 +288,17 @@ def test_a_mean_first_pass_takes_bands_twice_as_tall_with_the_same_result(monkey
     assert rows == [37] + [18] * 4
 
 
+def test_tiles_run_on_the_caller_alone_when_no_thread_starts(monkeypatch):
+    from napari_labyrinth import _engine
+
+    def no_thread(*args):
+        raise RuntimeError("can't start new thread")
+
+    monkeypatch.setattr(_engine._thread, "start_new_thread", no_thread)
+    plane = textured_plane((130, 150), seed=6)
+    assert_same(*serial_and_tiled(plane, make_parameters(**PRESETS["paper"]), 3, (16, 32)))
+
+
 def test_padded_counts_give_each_thread_whole_cache_lines():
     from napari_labyrinth._engine import padded_counts
 

@@ -10,6 +10,7 @@ argument checking and presets belong to the API.
 
 from __future__ import annotations
 
+import _thread
 import collections
 import dataclasses
 import functools
@@ -605,19 +606,36 @@ def _exact_order(
                 changed.notify_all()
 
     queue_if_ready(0)
-    threads = [
-        threading.Thread(target=work, args=(k,), name=f"napari-labyrinth-tiles-{k}")
-        for k in range(1, workers)
-    ]
-    for thread in threads:
-        thread.start()
+    # threading.Thread.start() waits until the new thread runs: 0.1-0.2 ms, and
+    # milliseconds when its core is busy, while only the first tile can run. So the
+    # helpers start without a wait, and each releases its lock when it is done.
+    done = [_start_helper(work, k) for k in range(1, workers)]
     work(0)
-    for thread in threads:
-        thread.join()
+    for lock in done:
+        lock.acquire()
     if failed:
         raise failed[0]
     counts += band_counts[:, : len(DIAGNOSTIC_FIELDS)].sum(axis=0)
     _gather_changes(changes, worker_changes)
+
+
+def _start_helper(work, worker: int) -> threading.Lock:
+    """Start ``work(worker)`` on a new thread without waiting for it to run; the returned
+    lock is held until ``work`` has returned (acquire it to wait for that)."""
+    done = threading.Lock()
+    done.acquire()
+
+    def run():
+        try:
+            work(worker)
+        finally:
+            done.release()
+
+    try:
+        _thread.start_new_thread(run, ())
+    except RuntimeError:  # no thread to be had: the others take its tiles
+        done.release()
+    return done
 
 
 def padded_counts(rows: int) -> np.ndarray:
