@@ -126,15 +126,55 @@ def count_tails(flat, least, greatest, low_stop, low_start, low_counts, high_sta
         # four tables take every fourth value (as count_values): a run of equal
         # values does not wait on its own increments
         if np.intp(least[b]) < low_stop:
-            for i in range(start, stop):
-                value = np.intp(flat[i])
-                if value < low_stop:
-                    low_counts[i & 3, value - low_start] += 1
+            _count_below(flat, start, stop, low_stop, low_start, low_counts)
         if np.intp(greatest[b]) >= high_start:
-            for i in range(start, stop):
-                value = np.intp(flat[i])
-                if value >= high_start:
-                    high_counts[i & 3, value - high_start] += 1
+            _count_from(flat, start, stop, high_start, high_counts)
+
+
+@njit(inline="always")
+def _count_below(flat, start, stop, bound, first, counts):
+    """``counts[i % 4, v - first] += 1`` for the values ``v = flat[i] < bound``,
+    ``start <= i < stop`` (``start`` a multiple of 4), four values a step: the
+    four rows' increments do not wait on each other."""
+    first_row, second_row, third_row, fourth_row = counts[0], counts[1], counts[2], counts[3]
+    quads = start + (stop - start) // 4 * 4
+    for i in range(start, quads, 4):
+        a, b = np.intp(flat[i]), np.intp(flat[i + 1])
+        c, d = np.intp(flat[i + 2]), np.intp(flat[i + 3])
+        if a < bound:
+            first_row[a - first] += 1
+        if b < bound:
+            second_row[b - first] += 1
+        if c < bound:
+            third_row[c - first] += 1
+        if d < bound:
+            fourth_row[d - first] += 1
+    for i in range(quads, stop):
+        value = np.intp(flat[i])
+        if value < bound:
+            counts[i & 3, value - first] += 1
+
+
+@njit(inline="always")
+def _count_from(flat, start, stop, bound, counts):
+    """``counts[i % 4, v - bound] += 1`` for the values ``v = flat[i] >= bound``."""
+    first_row, second_row, third_row, fourth_row = counts[0], counts[1], counts[2], counts[3]
+    quads = start + (stop - start) // 4 * 4
+    for i in range(start, quads, 4):
+        a, b = np.intp(flat[i]), np.intp(flat[i + 1])
+        c, d = np.intp(flat[i + 2]), np.intp(flat[i + 3])
+        if a >= bound:
+            first_row[a - bound] += 1
+        if b >= bound:
+            second_row[b - bound] += 1
+        if c >= bound:
+            third_row[c - bound] += 1
+        if d >= bound:
+            fourth_row[d - bound] += 1
+    for i in range(quads, stop):
+        value = np.intp(flat[i])
+        if value >= bound:
+            counts[i & 3, value - bound] += 1
 
 
 @njit(cache=True, nogil=True)
