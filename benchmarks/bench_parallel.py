@@ -7,7 +7,9 @@ Sections (all by default; ``--sections`` picks some):
   ``labyrinth()`` runs them, on 2 (and every core; ``run_pass`` with its
   default tiles, which takes no more threads than ``_engine.idle_cores()``),
   interleaved, best and median of ``--repeats``; at 2048² and ``--big``²
-  (8192²); bit-identity of every variant with the serial pass. On a busy
+  (8192²); the best process CPU time of each variant (all its threads) and
+  its excess over the serial pass (for ``1 thr``: what the tiles themselves
+  cost); bit-identity of every variant with the serial pass. On a busy
   machine the best of a few runs favours one thread (one thread is more
   likely to get a whole pass undisturbed than two at once): read the medians
   too.
@@ -22,6 +24,9 @@ Sections (all by default; ``--sections`` picks some):
 - ``stack``: a ``--planes`` x 1024² uint16 stack, 1 thread against every core.
 - ``checkerboard``: one ``--big``² plane in checkerboard order (not the
   paper's) on 1 and every thread, and its pattern against the raster scan's.
+
+``--presets paper`` limits the exact, loaded and tiles sections to one
+preset (e.g. ``--sections exact tiles --presets paper --repeats 25``).
 
 The load average is printed beside the figures: on a shared machine
 compare ratios of interleaved variants, and re-run on a quiet one with
