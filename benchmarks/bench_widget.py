@@ -22,9 +22,11 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import gc
 import os
 import sys
 import tempfile
+import threading
 import time
 
 import numpy as np
@@ -112,6 +114,42 @@ class GapMeter:
         self.timer.stop()
 
 
+class CollectionMeter:
+    """Python's full garbage collections (generation 2) while on: how many, the longest,
+    and in which thread; each holds the GIL, so it stalls the event loop whatever thread
+    runs it."""
+
+    def __init__(self) -> None:
+        self.collections: list[tuple[float, str]] = []
+        self._started = 0.0
+
+    def _callback(self, phase: str, info: dict) -> None:
+        if info.get("generation") != 2:
+            return
+        if phase == "start":
+            self._started = time.perf_counter()
+        elif self._started:
+            thread = threading.current_thread().name
+            self.collections.append((time.perf_counter() - self._started, thread))
+            self._started = 0.0
+
+    def __enter__(self):
+        self.collections = []
+        gc.callbacks.append(self._callback)
+        return self
+
+    def __exit__(self, *_exc) -> None:
+        gc.callbacks.remove(self._callback)
+
+    def summary(self) -> str:
+        """e.g. ``2, longest 184 ms (main)`` or ``0``."""
+        if not self.collections:
+            return "0"
+        longest, thread = max(self.collections)
+        where = "main" if thread == "MainThread" else "worker"
+        return f"{len(self.collections)}, longest {1000 * longest:.0f} ms ({where})"
+
+
 def image(size: int, planes: int = 0, dtype=np.uint16) -> np.ndarray:
     """A camera-like test image of ``size``², or a stack of ``planes`` shifted copies."""
     from skimage import data, transform
@@ -151,7 +189,9 @@ def _timed_run(widget) -> dict[str, float]:
     - ``adding``: the main thread's time adding (or updating) the result layer;
     - ``gap_showing``: the longest gap from the last step to 0.5 s after the end: the
       layer added or updated, then drawn (the texture upload, in software under Xvfb);
-    - ``drawing``: the longest single draw of the canvas by vispy in that time.
+    - ``drawing``: the longest single draw of the canvas by vispy in that time;
+    - ``collections``: Python's full garbage collections over the whole run and the
+      0.5 s after (:class:`CollectionMeter`'s summary).
     """
     worker = widget.run(start=False)
     total_steps = widget.progress_bar.maximum()
@@ -160,6 +200,7 @@ def _timed_run(widget) -> dict[str, float]:
     add_result = widget._add_result
 
     draw = DrawMeter()
+    collections = CollectionMeter()
 
     def on_step(step: int) -> None:
         if step >= total_steps:  # the last step: the result goes to the main thread next
@@ -179,7 +220,7 @@ def _timed_run(widget) -> dict[str, float]:
     widget._add_result = timed_add
     started = time.perf_counter()
     try:
-        with gap:
+        with gap, collections:
             worker.start()
             _wait(lambda: widget.worker is None)
             finished = time.perf_counter()
@@ -195,6 +236,7 @@ def _timed_run(widget) -> dict[str, float]:
         "adding": marks.get("adding", 0.0),
         "gap_showing": gap.longest,
         "drawing": draw.longest,
+        "collections": collections.summary(),
     }
 
 
@@ -221,14 +263,34 @@ def bench_stack(viewer, widget, size: int, repeats: int) -> tuple[list[dict], fl
     return runs, min(cancels)
 
 
-def bench_planes(viewer, widget, size: int, planes: int, repeats: int) -> list[dict]:
+def bench_planes(viewer, widget, size: int, planes: int, repeats: int) -> dict[str, list]:
     """Runs of a ``planes``-plane movie, 4 passes: the first adds the layer, the next
-    replace it (the widget's "replace last", on by default)."""
+    replace it (the widget's "replace last", on by default). Interleaved, runs with the
+    widget as it is ("held": no full garbage collection starts by itself during a run)
+    and with that hold taken out ("not held")."""
     _clear(viewer)
     viewer.add_image(image(size, planes), name="movie")
     widget.mode.value = "single"
     widget.fields["passes"].value = 4
-    return [_timed_run(widget) for _ in range(repeats)]
+    runs: dict[str, list] = {"held": [], "not held": []}
+    for _ in range(repeats):
+        runs["held"].append(_timed_run(widget))
+        with _collections_not_held():
+            runs["not held"].append(_timed_run(widget))
+    return runs
+
+
+@contextlib.contextmanager
+def _collections_not_held():
+    """The widget's runs without their hold on full garbage collections."""
+    from napari_labyrinth._qt import widget as module
+
+    hold = module.hold_full_collections
+    module.hold_full_collections = lambda: lambda: None
+    try:
+        yield
+    finally:
+        module.hold_full_collections = hold
 
 
 def bench_single(viewer, widget, size: int, repeats: int, replace: bool) -> list[dict]:
@@ -283,15 +345,16 @@ def _print_runs(runs: list[dict]) -> None:
     """One line per run (milliseconds but the total)."""
     print(
         "  run   total   rendering   longest gap   adding the layer   longest gap while"
-        "   of which: longest\n"
+        "   of which: longest      full garbage\n"
         "                 (worker)   while rendering    (main thread)   adding + drawing"
-        "   vispy draw (paintGL)"
+        "   vispy draw (paintGL)   collections"
     )
     for k, r in enumerate(runs, 1):
         print(
             f"  {k:>3} {r['total']:6.2f} s {1000 * r['rendering']:7.0f} ms"
             f" {1000 * r['gap_rendering']:13.0f} ms {1000 * r['adding']:15.0f} ms"
             f" {1000 * r['gap_showing']:17.0f} ms {1000 * r['drawing']:17.0f} ms"
+            f"   {r['collections']}"
         )
 
 
@@ -361,7 +424,9 @@ def _stack_part(viewer, widget, args) -> None:
 def _planes_part(viewer, widget, args) -> None:
     print(f"\nsingle mode, {args.planes} planes of 2048², 4 passes (run 1 adds the layer,")
     print("the next runs update it in place: replace last on)")
-    _print_runs(bench_planes(viewer, widget, 2048, args.planes, args.repeats))
+    for variant, runs in bench_planes(viewer, widget, 2048, args.planes, args.repeats).items():
+        print(f"full garbage collections {variant} during a run:")
+        _print_runs(runs)
 
 
 def _single_part(viewer, widget, args) -> None:

@@ -259,3 +259,33 @@ def test_the_progress_bar_changes_a_few_times_a_second_not_at_the_end(widget, mo
     # the last step: the bar is hidden as the result is shown; a repaint for it would
     # stall the event loop in the same turn
     assert widget.progress_bar.value() == 2
+
+
+def test_no_full_garbage_collection_starts_by_itself_while_a_run_is_on(qtbot, viewer, widget):
+    import gc
+
+    from napari_labyrinth._qt.collector import HELD_THRESHOLD
+
+    threshold = gc.get_threshold()
+    _, worker = _start_long_run(viewer, widget)
+    seen = []
+    worker.yielded.connect(lambda _: seen.append(gc.get_threshold()[2]))
+    with qtbot.waitSignal(worker.finished, timeout=RUN_TIMEOUT_MS):
+        worker.start()
+    assert seen and set(seen) == {HELD_THRESHOLD}
+    assert gc.get_threshold()[2] == HELD_THRESHOLD  # the result is still to be shown
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    assert widget.last_result.visible
+    qtbot.waitUntil(lambda: gc.get_threshold() == threshold, timeout=1000)  # after its draw
+
+
+def test_a_cancelled_run_gives_the_collections_back(qtbot, viewer, widget):
+    import gc
+
+    threshold = gc.get_threshold()
+    _, worker = _start_long_run(viewer, widget)
+    worker.yielded.connect(lambda _: widget.cancel())
+    worker.start()
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    assert "Cancelled" in widget.status.value
+    qtbot.waitUntil(lambda: gc.get_threshold() == threshold, timeout=1000)

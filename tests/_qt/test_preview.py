@@ -79,3 +79,30 @@ def test_run_still_renders_the_full_result_beside_the_preview(qtbot, viewer, wid
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
     result = viewer.layers["movie · labyrinth"]
     np.testing.assert_array_equal(result.data, labyrinth(data))
+
+
+def test_no_full_garbage_collection_starts_by_itself_while_a_preview_renders(
+    qtbot, viewer, widget
+):
+    import gc
+
+    from napari_labyrinth._qt.collector import HELD_THRESHOLD
+
+    threshold = gc.get_threshold()
+    viewer.add_image(noise((256, 256)), name="plane", contrast_limits=(0, 255))
+    held = []
+    original_render = widget.preview._render
+
+    def render_and_watch():
+        original_render()
+        worker = widget.preview._worker
+        if worker is not None:
+            worker.yielded.connect(lambda _: held.append(gc.get_threshold()[2]))
+
+    widget.preview._render = render_and_watch
+    widget.preview._timer.timeout.disconnect()
+    widget.preview._timer.timeout.connect(render_and_watch)
+    widget.preview_toggle.value = True
+    qtbot.waitUntil(lambda: _settled(widget), timeout=RUN_TIMEOUT_MS)
+    assert held and set(held) == {HELD_THRESHOLD}
+    assert gc.get_threshold() == threshold

@@ -21,6 +21,7 @@ from qtpy.QtWidgets import QSizePolicy
 
 from ..plan import Choices, LayerSnapshot, make_plan
 from ..window import Window, window_for
+from .collector import hold_while_running
 from .form import ParameterForm
 from .plot_layout import INSET, SWATCH, FittedPlot, PlotLayout, compact_font, plot_layout
 
@@ -95,6 +96,7 @@ class AutoWindow:
         worker.returned.connect(self._on_found)
         worker.errored.connect(self._on_failed)
         worker.finished.connect(self._on_finished)
+        hold_while_running(worker)
         self.worker = worker
         if start:
             worker.start()

@@ -19,6 +19,7 @@ from qtpy.QtCore import QObject, QTimer
 
 from ..plan import Choices, LayerSnapshot, RenderPlan, make_plan, preview_choices
 from ..run import Failure, Outcome, result_layer
+from .collector import hold_while_running
 from .worker import agrees, render_worker, stop
 
 #: Milliseconds without a change before the preview renders.
@@ -121,6 +122,7 @@ class Preview:
             lambda outcome: self._show(generation, requested_at, plan, outcome)
         )
         worker.finished.connect(lambda: self._finished(worker))
+        hold_while_running(worker)
         self._worker, self._plan = worker, plan
         worker.start()
 

@@ -36,6 +36,7 @@ from ..core.presets import DEFAULT_PRESET
 from ..plan import MODES, SWEEP_PARAMETERS, Choices, RenderPlan, default_sweep_text, make_plan
 from ..run import Failure, Outcome
 from .auto_window import AutoWindow
+from .collector import hold_full_collections
 from .compare import CompareView
 from .form import ParameterForm
 from .inputs import InputSection
@@ -158,6 +159,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self._cancel_reason = ""
         self._shown_plane: tuple[int, ...] | None = None
         self._closed = False
+        self._release_collections = _nothing
         self._progress_shown = 0.0
         self.sweep_label = SweepLabel(self.viewer)
         self.preview = Preview(self.viewer, self.inputs.snapshot, self.choices, self._say, self)
@@ -395,6 +397,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         worker.yielded.connect(self._on_progress)
         self.worker = worker
         self._plan = plan
+        self._release_collections = hold_full_collections()  # released as the run settles
         self._input = self.image_layer.value
         self._outcome_received = False
         self._outcome = None
@@ -511,11 +514,16 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
     def _settle(self) -> None:
         """The run is over: buttons, progress bar and status show it."""
         cancelled = self._plan is not None and not self._outcome_received
+        release, self._release_collections = self._release_collections, _nothing
         self.worker = None
         self._plan = None  # holds the input data: let it go
         self._input = None
         if self._closed:
+            release()
             return
+        # after the result's first draw, which is pending: a collection that fell due
+        # during the run must not land in it
+        QTimer.singleShot(NEXT_TURN_MS, release)
         self.run_button.enabled = True
         self.cancel_button.enabled = False
         self.progress_bar.setVisible(False)
@@ -552,6 +560,10 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
     def comparing(self) -> bool:
         """Whether the compare (grid) view is on."""
         return self._compare.active
+
+
+def _nothing() -> None:
+    pass
 
 
 def _fit_label_widths(box: Container) -> None:
