@@ -127,6 +127,9 @@ def _first_call_bytes(original, rendered) -> float:
 
     from napari_labyrinth import metrics
 
+    pool = getattr(metrics, "_SHARED_POOL", None)
+    if pool is not None:
+        pool.clear()  # the arrays of earlier calls: a first call in a process has none
     comparison = metrics.Comparison(original)
     tracemalloc.start()
     comparison.describe(rendered)

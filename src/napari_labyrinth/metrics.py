@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 import os
 import threading
+import weakref
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, NamedTuple
@@ -177,35 +178,69 @@ class _LastPlane:
 
 
 class _Pool:
-    """Arrays handed back by the maps of renderings that are done, for the next ones.
+    """Arrays of maps that are done, for the next maps of the same shape.
 
-    A fresh array costs its page faults (a pass writes about 45 bytes a
-    pixel of new maps); a stack's passes have the same shape. Thread-safe;
-    keeps at most ``size`` bytes.
+    A fresh array costs its page faults: a first describe writes about 80
+    bytes a pixel of new maps, and the kernel may have to compact memory to
+    back them with huge pages (``docs/metrics.md``). The passes of a stack,
+    and the next original of the same shape, take the arrays of the last
+    ones instead. Thread-safe. Keeps the arrays of one shape only (those of
+    the last array given back), at most ``pixel_bytes`` bytes a pixel of it,
+    and drops them all ``idle`` seconds after the last array was given back
+    (a timer thread waits that long).
     """
 
-    def __init__(self, size: int = 256 * 2**20):
-        self._size = size
-        self._arrays: dict[tuple, list[np.ndarray]] = {}
+    def __init__(self, pixel_bytes: int = 96, idle: float = 10.0):
+        self._pixel_bytes = pixel_bytes
+        self._idle = idle
+        self._shape: tuple | None = None
+        self._arrays: dict[str, list[np.ndarray]] = {}
+        self._timer: threading.Timer | None = None
         self._lock = threading.Lock()
 
     def take(self, shape: tuple, dtype) -> np.ndarray:
-        key = (tuple(shape), np.dtype(dtype).str)
+        shape = tuple(shape)
         with self._lock:
-            arrays = self._arrays.get(key)
+            arrays = self._arrays.get(np.dtype(dtype).str) if shape == self._shape else None
             if arrays:
                 return arrays.pop()
         return np.empty(shape, dtype=dtype)
 
     def give(self, arrays) -> None:
         with self._lock:
-            kept = sum(a.nbytes for v in self._arrays.values() for a in v)
             for array in arrays:
-                if kept + array.nbytes > self._size or array.base is not None:
+                if array.base is not None:
+                    continue
+                if array.shape != self._shape:
+                    self._arrays.clear()
+                    self._shape = array.shape
+                kept = sum(a.nbytes for v in self._arrays.values() for a in v)
+                if kept + array.nbytes > self._pixel_bytes * array.size:
                     continue
                 array.flags.writeable = True
-                self._arrays.setdefault((array.shape, array.dtype.str), []).append(array)
-                kept += array.nbytes
+                self._arrays.setdefault(array.dtype.str, []).append(array)
+            if self._timer is not None:
+                self._timer.cancel()
+            self._timer = threading.Timer(self._idle, self.clear)
+            self._timer.name = "metrics-pool-release"
+            self._timer.daemon = True
+            self._timer.start()
+
+    def clear(self) -> None:
+        """Drop every array kept."""
+        with self._lock:
+            self._arrays.clear()
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the arrays kept."""
+        with self._lock:
+            return sum(a.nbytes for v in self._arrays.values() for a in v)
+
+
+#: The pool of every :class:`Comparison`: a stack's passes and the next original of the
+#: same shape reuse the memory of the last ones.
+_SHARED_POOL = _Pool()
 
 
 class _Maps:
@@ -893,10 +928,15 @@ class Comparison:
     """
 
     def __init__(self, original, *, workers: int | None = None):
-        plane = _float_plane(_plane(original, "original"), copy=True)
-        self._maps = _Maps(plane, workers, walls=False)  # the renderings' walls only
+        array = _plane(original, "original")
+        self._pool = _SHARED_POOL
+        plane = self._pool.take(array.shape, np.float64)
+        np.copyto(plane, array, casting="unsafe")  # real dtypes: exact in float64
+        # the renderings' walls only; the maps' arrays go back to the pool with the object
+        self._maps = _Maps(plane, workers, self._pool, walls=False)
+        self._maps._taken.append(plane)
+        weakref.finalize(self, self._maps.release)
         self.workers = workers
-        self._pool = _Pool()
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -908,7 +948,8 @@ class Comparison:
         ``rendered`` is checked and copied by the call; each metric's work
         is done when the generator is asked for it, so a caller that stops
         iterating (or closes the generator) between two metrics skips the
-        work of the rest. No thread outlives a step.
+        work of the rest. No thread outlives a step (but the timer that
+        frees the arrays kept for the next maps, ``_Pool``).
 
         Examples
         --------
