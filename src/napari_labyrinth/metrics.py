@@ -453,17 +453,20 @@ class _Maps:
         return self._get("above_local_mean", compute)
 
     def wall_orientation(self) -> tuple[np.ndarray, ...]:
-        """Strength, coherence * strength, cos and sin of twice the angle, of ``h``, on the walls.
+        """Where each row's wall pixels begin, then strength, coherence * strength, cos and
+        sin of twice the angle, of ``h``, at the wall pixels only.
 
-        The strengths are those of ``h`` times a power of two (ratios of them are exact):
-        the tensor reads ``h``'s float32 copy of the wall pass (:meth:`_lag_plane`).
+        The four maps hold the wall pixels one after the other in row-major
+        order, row y's from index ``row_starts[y]`` to ``row_starts[y + 1]``
+        (the maps are read on the walls only: a tenth of a plane's memory
+        where walls cover a tenth of it). The strengths are those of ``h``
+        times a power of two (ratios of them are exact): the tensor reads
+        ``h``'s float32 copy of the wall pass (:meth:`_lag_plane`).
         """
 
         def compute():
             walls = self.walls()[0]
-            return _wall_orientation(
-                self._lag_plane(), 1.0, WINDOW_SIGMA, self.workers, walls, self._empty
-            )
+            return _wall_orientation(self._lag_plane(), 1.0, WINDOW_SIGMA, self.workers, walls)
 
         return self._get("wall_orientation", compute)
 
@@ -592,11 +595,21 @@ def _tiles_with(walls: np.ndarray, tiles: int, workers) -> np.ndarray:
     return needed
 
 
-def _wall_orientation(plane, scale, sigma, workers, walls, empty):
-    """The derived tensor maps (``TENSOR_DERIVED``) of ``plane * scale``, on ``walls`` (at least)."""
-    needed = _tiles_with(walls, _tensor_tiles(plane.shape[1], sigma), workers)
-    outputs = tuple(empty(np.float32) for _ in range(4))
-    return _derived_tensor(plane, scale, sigma, workers, needed, outputs)
+def _wall_orientation(plane, scale, sigma, workers, walls):
+    """The derived tensor maps (``TENSOR_DERIVED``) of ``plane * scale`` at the pixels of
+    ``walls`` only, after the rows' starts (see :meth:`_Maps.wall_orientation`)."""
+    kernels = _kernels()
+    counts = np.empty((walls.shape[0], _tensor_tiles(plane.shape[1], sigma)), dtype=np.int64)
+    _in_bands(kernels.mask_counts, walls.shape[0], workers, walls, counts)
+    starts = kernels.mask_starts(counts)
+    row_starts = np.append(starts[:, 0], starts[-1, -1] + counts[-1, -1])
+    outputs = tuple(np.empty((1, int(row_starts[-1])), dtype=np.float32) for _ in range(4))
+    if _decimated(sigma):
+        _derived_tensor(plane, scale, sigma, workers, counts > 0, outputs, starts, walls)
+        return (row_starts, *(output[0] for output in outputs))
+    planes = tuple(np.empty(plane.shape, dtype=np.float32) for _ in range(4))
+    _derived_tensor(plane, scale, sigma, workers, counts > 0, planes)
+    return (row_starts, *(map_[walls] for map_ in planes))
 
 
 def _decimated(sigma: float) -> bool:
@@ -616,13 +629,14 @@ def _tensor_tiles(width: int, sigma: float) -> int:
     return _kernels().tensor_tiles(width, _tensor_weights(sigma).shape[0] - 1)
 
 
-def _derived_tensor(plane, scale, sigma, workers, needed, outputs):
+def _derived_tensor(plane, scale, sigma, workers, needed, outputs, starts=None, mask=None):
     """The derived maps (``TENSOR_DERIVED``) of the structure tensor of ``plane * scale`` at
     ``sigma`` into ``outputs``, on the rows of column tiles ``needed``.
 
     From ``sigma = _DECIMATED_SIGMA`` on, the decimated tensor
-    (``_metrics_kernels.decimated_tensor_band``); below, the doubled grid's
-    (:func:`orientation`'s).
+    (``_metrics_kernels.decimated_tensor_band``; with ``starts``, at the
+    pixels of ``mask`` only, one after the other); below, the doubled
+    grid's (:func:`orientation`'s).
     """
     kernels = _kernels()
     if not _decimated(sigma):
@@ -630,6 +644,9 @@ def _derived_tensor(plane, scale, sigma, workers, needed, outputs):
             plane, scale, sigma, kernels.TENSOR_DERIVED, workers, needed, outputs
         )
     weights = _tensor_weights(sigma)
+    if starts is None:
+        starts = np.empty((0, 0), dtype=np.int64)
+        mask = np.empty((0, 0), dtype=bool)
     _in_bands(
         kernels.decimated_tensor_band,
         plane.shape[0],
@@ -638,6 +655,8 @@ def _derived_tensor(plane, scale, sigma, workers, needed, outputs):
         scale,
         weights,
         needed,
+        starts,
+        mask,
         *outputs,
     )
     return outputs
@@ -792,10 +811,9 @@ def orientation_coherence(image) -> float:
 def _orientation_coherence(maps: _Maps) -> float:
     if maps.cover() < MIN_COVER or not maps.finite:
         return math.nan  # NaN or infinity in h: the weighted sum is NaN
-    walls, _, _ = maps.walls()
-    strength, coherent, _, _ = maps.wall_orientation()
+    row_starts, strength, coherent, _, _ = maps.wall_orientation()
     sums = maps._row_sums(2)
-    maps._bands(_kernels().wall_weighted_sums, walls, strength, coherent, sums)
+    maps._bands(_kernels().wall_weighted_sums, row_starts, strength, coherent, sums)
     numerator = math.fsum(sums[:, 0])
     denominator = math.fsum(sums[:, 1])
     return numerator / denominator if denominator > 0 else math.nan
@@ -829,12 +847,13 @@ def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTO
     if after.cover() < MIN_COVER or not (after.finite and before.finite):
         return math.nan  # NaN or infinity in either image: the weighted sum is NaN
     walls, _, _ = after.walls()
-    _, wall_coherent, wall_cos, wall_sin = after.wall_orientation()
+    row_starts, _, wall_coherent, wall_cos, wall_sin = after.wall_orientation()
     _, contour_coherent, contour_cos, contour_sin = before.contours(contour_sigma, walls)
     sums = after._row_sums(2)
     after._bands(
         _kernels().alignment_sums,
         walls,
+        row_starts,
         wall_coherent,
         wall_cos,
         wall_sin,
