@@ -1198,20 +1198,25 @@ def _derive(rr, rc, cc, strength, coherent, cosine, sine):
 @njit(cache=True, nogil=True)
 def _derive_where(rr, rc, cc, mask, start, strength, coherent, cosine, sine):
     """:func:`_derive` at the True pixels of ``mask`` only, written one after the other
-    from index ``start`` of the outputs."""
-    index = start
+    from index ``start`` of the outputs (the components gathered first, then derived in
+    one loop)."""
+    count = 0
     for x in range(mask.shape[0]):
         if mask[x]:
-            _derive(
-                rr[x : x + 1],
-                rc[x : x + 1],
-                cc[x : x + 1],
-                strength[index : index + 1],
-                coherent[index : index + 1],
-                cosine[index : index + 1],
-                sine[index : index + 1],
-            )
-            index += 1
+            rr[count] = rr[x]  # count <= x: a component is read before it is overwritten
+            rc[count] = rc[x]
+            cc[count] = cc[x]
+            count += 1
+    end = start + count
+    _derive(
+        rr[:count],
+        rc[:count],
+        cc[:count],
+        strength[start:end],
+        coherent[start:end],
+        cosine[start:end],
+        sine[start:end],
+    )
 
 
 @njit(cache=True, nogil=True)
