@@ -475,3 +475,16 @@ def test_a_comparison_gives_its_originals_maps_back_when_it_is_gone(cases, monke
     del comparison
     gc.collect()
     assert metrics._SHARED_POOL.nbytes > after_pass  # the original's plane and maps too
+
+
+def test_a_finalizer_gives_arrays_back_without_waiting_for_the_pool():
+    """The garbage collector may finalize a Comparison in a thread inside the pool (holding
+    its lock): the arrays wait for the pool's next use instead of a deadlock."""
+    pool = metrics._Pool(idle=60.0)
+    with pool._lock:  # held, as by a thread inside give()
+        finalizer = threading.Thread(target=pool.give_later, args=([np.empty((4, 5))],))
+        finalizer.start()
+        finalizer.join(timeout=30)
+        assert not finalizer.is_alive()  # it did not wait for the lock
+    assert pool.nbytes == 8 * 20  # kept at the pool's next use
+    pool.clear()

@@ -23,6 +23,7 @@ of :func:`orientation`'s (see :mod:`._metrics_kernels` and ``docs/metrics.md``).
 
 from __future__ import annotations
 
+import collections
 import math
 import os
 import threading
@@ -180,7 +181,7 @@ class _LastPlane:
 class _Pool:
     """Arrays of maps that are done, for the next maps of the same shape.
 
-    A fresh array costs its page faults: a first describe writes about 80
+    A fresh array costs its page faults: a first describe writes about 65
     bytes a pixel of new maps, and the kernel may have to compact memory to
     back them with huge pages (``docs/metrics.md``). The passes of a stack,
     and the next original of the same shape, take the arrays of the last
@@ -195,12 +196,14 @@ class _Pool:
         self._idle = idle
         self._shape: tuple | None = None
         self._arrays: dict[str, list[np.ndarray]] = {}
+        self._returned: collections.deque = collections.deque()  # see give_later
         self._timer: threading.Timer | None = None
         self._lock = threading.Lock()
 
     def take(self, shape: tuple, dtype) -> np.ndarray:
         shape = tuple(shape)
         with self._lock:
+            self._drain()
             arrays = self._arrays.get(np.dtype(dtype).str) if shape == self._shape else None
             if arrays:
                 return arrays.pop()
@@ -208,34 +211,59 @@ class _Pool:
 
     def give(self, arrays) -> None:
         with self._lock:
-            for array in arrays:
-                if array.base is not None:
-                    continue
-                if array.shape != self._shape:
-                    self._arrays.clear()
-                    self._shape = array.shape
-                kept = sum(a.nbytes for v in self._arrays.values() for a in v)
-                if kept + array.nbytes > self._pixel_bytes * array.size:
-                    continue
-                array.flags.writeable = True
-                self._arrays.setdefault(array.dtype.str, []).append(array)
-            if self._timer is not None:
-                self._timer.cancel()
-            self._timer = threading.Timer(self._idle, self.clear)
-            self._timer.name = "metrics-pool-release"
-            self._timer.daemon = True
-            self._timer.start()
+            self._drain()
+            self._keep(arrays)
+            self._restart_timer()
+
+    def give_later(self, arrays) -> None:
+        """:meth:`give` that never waits: for finalizers, which the garbage collector may
+        run in any thread, even one inside :meth:`give` (it holds the lock)."""
+        self._returned.append(arrays)
+        if self._lock.acquire(blocking=False):
+            try:
+                self._drain()
+                self._restart_timer()
+            finally:
+                self._lock.release()
 
     def clear(self) -> None:
         """Drop every array kept."""
         with self._lock:
+            self._returned.clear()
             self._arrays.clear()
 
     @property
     def nbytes(self) -> int:
         """Bytes of the arrays kept."""
         with self._lock:
+            self._drain()
             return sum(a.nbytes for v in self._arrays.values() for a in v)
+
+    def _drain(self) -> None:
+        """Keep the arrays given back by :meth:`give_later` (the lock held)."""
+        while self._returned:
+            self._keep(self._returned.popleft())
+
+    def _keep(self, arrays) -> None:
+        for array in arrays:
+            if array.base is not None:
+                continue  # a view: its base may be in use
+            if array.shape != self._shape:
+                self._arrays.clear()
+                self._shape = array.shape
+            kept = sum(a.nbytes for v in self._arrays.values() for a in v)
+            if kept + array.nbytes > self._pixel_bytes * array.size:
+                continue
+            array.flags.writeable = True
+            self._arrays.setdefault(array.dtype.str, []).append(array)
+
+    def _restart_timer(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+        self._timer = threading.Timer(self._idle, self.clear)
+        self._timer.name = "metrics-pool-release"
+        self._timer.daemon = True
+        self._timer.start()
 
 
 #: The pool of every :class:`Comparison`: a stack's passes and the next original of the
@@ -665,7 +693,7 @@ def _derived_tensor(plane, scale, sigma, workers, needed, outputs, starts=None, 
 # --- the maps of renderings, shared between the single metrics ---------------------------
 
 #: Maps of the last plane given to the single metrics, by content (a plane's maps take
-#: about 45 bytes a pixel: one is kept).
+#: about 30 to 40 bytes a pixel: one is kept).
 _RENDERED = _LastPlane()
 #: The :class:`Comparison` of the last original given to :func:`describe`, by content.
 _ORIGINALS = _LastPlane()
@@ -954,7 +982,7 @@ class Comparison:
         # the renderings' walls only; the maps' arrays go back to the pool with the object
         self._maps = _Maps(plane, workers, self._pool, walls=False)
         self._maps._taken.append(plane)
-        weakref.finalize(self, self._maps.release)
+        weakref.finalize(self, self._pool.give_later, self._maps._taken)
         self.workers = workers
 
     @property
