@@ -426,6 +426,45 @@ def _smooth_block(
             _gauss_line(ext[: tile + 2 * radius], radius, weights, out)
 
 
+@njit(cache=True, nogil=True)
+def local_mean_band(plane, weights, where, flags, y0, y1):
+    """``flags = plane > G * plane`` (scipy's Gaussian of ``weights``, ``reflect``: its
+    floats) on rows ``[y0, y1)``, on the rows of the wall pass's column tiles (``X_TILE``)
+    that hold a True pixel of ``where``; False on the others."""
+    height, width = plane.shape
+    radius = weights.shape[0] - 1
+    span = X_TILE + 2 * radius
+    ring = np.empty((2 * radius + 1, span))
+    column = np.empty(span)
+    ext = np.empty(span)
+    result = np.empty((Y_BLOCK, X_TILE))
+    needed = np.empty(Y_BLOCK, dtype=np.bool_)
+    no_lag = LAG_DY[0]  # not a compile-time constant (see smooth_band)
+    mode = no_lag + MODE_LOCAL_MEAN
+    for x0 in range(0, width, X_TILE):
+        x1 = min(width, x0 + X_TILE)
+        for b0 in range(y0, y1, Y_BLOCK):
+            b1 = min(y1, b0 + Y_BLOCK)
+            any_row = False
+            for y in range(b0, b1):
+                needed[y - b0] = _any_above(where[y, x0:x1], False)
+                any_row = any_row or needed[y - b0]
+            flags[b0:b1, x0:x1] = False
+            if not any_row:
+                continue
+            _smooth_block(
+                plane, plane, mode, no_lag, no_lag, 0.5, weights, b0, b1, x0, x1, ring, column,
+                ext, result, needed,
+            )  # fmt: skip
+            for y in range(b0, b1):
+                if needed[y - b0]:
+                    source = plane[y, x0:x1]
+                    mean = result[y - b0]
+                    out = flags[y, x0:x1]
+                    for i in range(x1 - x0):
+                        out[i] = source[i] > mean[i]
+
+
 #: Bound on the float32 error of a smoothed lag product, in units of ``G * |product|``:
 #: the products and both 1-D passes accumulate about 28 roundings of 2**-24; twice that.
 FLOAT32_ERROR = 64 * 2.0**-24
@@ -455,7 +494,7 @@ def smooth_band(
     """The wall pass (or one of its parts) on rows ``[y0, y1)``.
 
     ``MODE_WALLS``: ``energy = G * h**2`` and ``flags`` = the wall map;
-    ``MODE_ENERGY``: ``energy`` only; ``MODE_LOCAL_MEAN``: ``flags = plane > G * plane``.
+    ``MODE_ENERGY``: ``energy`` only (:func:`local_mean_band` makes ``MODE_LOCAL_MEAN``'s).
     Returns the count of True flags and the number of pixels whose wall
     decision was recomputed exactly; ``sums[y, 0]`` gets the sum of ``energy[y]``.
 
@@ -490,38 +529,6 @@ def smooth_band(
     count = 0
     exact = 0
     half = 0.5
-    if mode == MODE_LOCAL_MEAN:
-        for x0 in range(0, width, X_TILE):
-            x1 = min(width, x0 + X_TILE)
-            for b0 in range(y0, y1, Y_BLOCK):
-                b1 = min(y1, b0 + Y_BLOCK)
-                _smooth_block(
-                    plane,
-                    plane,
-                    mode,
-                    no_lag,
-                    no_lag,
-                    half,
-                    weights,
-                    b0,
-                    b1,
-                    x0,
-                    x1,
-                    ring,
-                    column,
-                    ext,
-                    result,
-                    every_row,
-                )
-                for y in range(b0, b1):
-                    source = plane[y, x0:x1]
-                    mean = result[y - b0]
-                    out = flags[y, x0:x1]
-                    for i in range(x1 - x0):
-                        above_mean = source[i] > mean[i]
-                        out[i] = above_mean
-                        count += above_mean
-        return count, exact
     # the energy of the band, and (for the bound) of the 4 rows on each side (the longest
     # lag), which belong to the neighbouring bands: in ``halo`` (rows e0 + k and y1 + k)
     reach = 4

@@ -436,7 +436,7 @@ class _Maps:
             flags,
             sums,
         )
-        return results, (math.fsum(sums[:, 0]) if mode != kernels.MODE_LOCAL_MEAN else math.nan)
+        return results, math.fsum(sums[:, 0])
 
     def walls(self) -> tuple[np.ndarray, np.ndarray, float]:
         """The wall map, the energy ``G_2 * h**2`` and the energy's sum."""
@@ -471,11 +471,15 @@ class _Maps:
         return int(np.count_nonzero(walls)) / walls.size
 
     def above_local_mean(self) -> np.ndarray:
-        """``g > G_2 * g``: where the plane is above its local mean."""
+        """``g > G_2 * g``: where the plane is above its local mean, at the wall pixels
+        (the rows of column tiles that hold walls; False on the others)."""
 
         def compute():
             positive = self._empty(bool)
-            self._smooth(_kernels().MODE_LOCAL_MEAN, np.empty((1, 1)), positive)
+            walls = self.walls()[0]
+            self._bands(
+                _kernels().local_mean_band, self.plane, _weights(WINDOW_SIGMA), walls, positive
+            )
             return positive
 
         return self._get("above_local_mean", compute)
