@@ -23,13 +23,13 @@ of :func:`orientation`'s (see :mod:`._metrics_kernels` and ``docs/metrics.md``).
 
 from __future__ import annotations
 
+import _thread
 import collections
 import math
 import os
 import threading
 import weakref
 from collections.abc import Callable, Iterator
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -119,6 +119,11 @@ def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) ->
     a band of rows that holds more work (walls, texture) does not hold up
     the others. The kernels' results do not depend on the bands; the list
     of their return values is in the order of the bands.
+
+    The calling thread starts on the bands at once and waits only for the
+    bands other threads took: a helper thread that runs late (its core
+    busy: a thread's start waits 0.2 ms for it to run, milliseconds when
+    the other core is busy) finds the bands taken and ends without work.
     """
     workers = _default_workers() if workers is None else max(1, int(workers))
     count = max(1, min(_BANDS_PER_WORKER * workers, height // _MIN_BAND_ROWS))
@@ -126,23 +131,37 @@ def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) ->
         return [kernel(*arguments, 0, height)]
     edges = np.linspace(0, height, count + 1).astype(int).tolist()
     results: list = [None] * count
-    bands = iter(range(count))
-    lock = threading.Lock()
+    failures: list[BaseException] = []
+    state = {"next": 0, "running": 0}
+    changed = threading.Condition()
 
     def work() -> None:
         while True:
-            with lock:
-                index = next(bands, None)
-            if index is None:
-                return
-            results[index] = kernel(*arguments, edges[index], edges[index + 1])
+            with changed:
+                index = state["next"]
+                if index >= count or failures:
+                    return
+                state["next"] = index + 1
+                state["running"] += 1
+            try:
+                results[index] = kernel(*arguments, edges[index], edges[index + 1])
+            except BaseException as exc:  # raised in the calling thread below
+                failures.append(exc)
+            finally:
+                with changed:
+                    state["running"] -= 1
+                    changed.notify_all()
 
-    helpers = min(workers, count) - 1
-    with ThreadPoolExecutor(helpers) as pool:
-        futures = [pool.submit(work) for _ in range(helpers)]
-        work()
-        for future in futures:
-            future.result()
+    for _ in range(min(workers, count) - 1):
+        try:
+            _thread.start_new_thread(work, ())
+        except RuntimeError:  # no thread to be had: the calling thread takes its bands
+            break
+    work()
+    with changed:
+        changed.wait_for(lambda: state["running"] == 0)
+    if failures:
+        raise failures[0]
     return results
 
 
