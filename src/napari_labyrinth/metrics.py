@@ -1018,8 +1018,9 @@ class Comparison:
         ``rendered`` is checked and copied by the call; each metric's work
         is done when the generator is asked for it, so a caller that stops
         iterating (or closes the generator) between two metrics skips the
-        work of the rest. No thread outlives a step (but the timer that
-        frees the arrays kept for the next maps, ``_Pool``).
+        work of the rest. No thread works after a step (a helper that starts
+        late ends without work, see ``_in_bands``; the timer that frees the
+        arrays kept for the next maps, ``_Pool``, only waits).
 
         Examples
         --------
