@@ -31,8 +31,16 @@ first time, whose page faults are system time), and the run prints the
 kernel's transparent huge page settings: with ``defrag`` at ``madvise``, a
 first touch of numpy's large arrays may wait for the kernel to compact memory.
 
+``--stages`` prints instead where a first call's time goes: each map and
+metric of ``Comparison(original).describe(rendered)`` computed one after the
+other on one thread (``workers=1``), with its wall, user and system time and
+page faults (``getrusage``), in a fresh process per tree and round: round 1
+is a first call in the process (new memory), the later rounds are calls on
+new originals in a warm process.
+
 Run: ``python benchmarks/bench_metrics.py [--against /path/to/main] [--sizes 512 2048 4096]
-[--rounds 3]``. The reference takes about a minute per call at 4096 x 4096 on two cores.
+[--rounds 3] [--stages]``. The reference takes about a minute per call at 4096 x 4096 on
+two cores.
 """
 
 from __future__ import annotations
@@ -127,6 +135,9 @@ def _first_call_bytes(original, rendered) -> float:
 
     from napari_labyrinth import metrics
 
+    pool = getattr(metrics, "_SHARED_POOL", None)
+    if pool is not None:
+        pool.clear()  # the arrays of earlier calls: a first call in a process has none
     comparison = metrics.Comparison(original)
     tracemalloc.start()
     comparison.describe(rendered)
@@ -142,6 +153,54 @@ def _huge_pages() -> str:
         return " / ".join((base / name).read_text().strip() for name in ("enabled", "defrag"))
     except OSError:
         return "unknown"
+
+
+def stages(size: int, rounds: int) -> None:
+    """Per-stage times of ``Comparison(original).describe(rendered)`` on one thread, printed."""
+    import resource
+
+    from napari_labyrinth import labyrinth, metrics
+
+    original = camera(size)
+    rendered = labyrinth(original, seed=0)
+    small = camera(64)
+    metrics.describe(small, labyrinth(small, seed=0))  # compile or load numba's cache
+
+    def usage():
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return time.perf_counter(), r.ru_utime, r.ru_stime, r.ru_minflt
+
+    steps = (
+        ("original's own maps", lambda c, a: c._maps._fine()),
+        ("rendering's h", lambda c, a: a._full_fine()),
+        ("wall pass", lambda c, a: a.walls()),
+        ("local mean", lambda c, a: a.above_local_mean()),
+        ("wall_width", lambda c, a: metrics._wall_width(a)),
+        ("walls' orientation", lambda c, a: a.wall_orientation()),
+        ("orientation_coherence", lambda c, a: metrics._orientation_coherence(a)),
+        ("contours", lambda c, a: c._maps.contours(metrics.CONTOUR_SIGMA, a.walls()[0])),
+        ("contour_alignment", lambda c, a: metrics._contour_alignment(c._maps, a)),
+        ("edge_enhancement", lambda c, a: metrics._edge_enhancement(c._maps, a)),
+    )
+    print(f"{size} x {size}, napari_labyrinth from {Path(metrics.__file__).parent}")
+    for round_number in range(rounds):
+        print(f"  round {round_number + 1} (load average {os.getloadavg()})")
+        begin = usage()
+        comparison = metrics.Comparison(original, workers=1)
+        after = comparison._rendering_maps(rendered)
+        lines = [("copies of both planes", begin, usage())]
+        for name, step in steps:
+            before = usage()
+            step(comparison, after)
+            lines.append((name, before, usage()))
+        after.release()
+        lines.append(("total", begin, usage()))
+        for name, (w0, u0, s0, f0), (w1, u1, s1, f1) in lines:
+            print(
+                f"    {name:<24}{(w1 - w0) * 1e3:7.1f} ms wall {(u1 - u0) * 1e3:7.1f} user"
+                f" {(s1 - s0) * 1e3:6.1f} system {f1 - f0:7d} page faults"
+            )
+        del comparison
 
 
 def run_child(tree: Path, sizes) -> dict:
@@ -162,10 +221,26 @@ def main(argv=None) -> None:
         default=None,
         help="rounds of the reference above 2048 x 2048 (default: 1; it is slow)",
     )
+    parser.add_argument(
+        "--stages", action="store_true", help="where a first call's time goes, stage by stage"
+    )
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
-        child(args.sizes)
+        if args.stages:
+            stages(args.sizes[0], args.rounds)
+        else:
+            child(args.sizes)
+        return
+    if args.stages:
+        print(f"one thread; the machine's load average {os.getloadavg()}, {os.cpu_count()} cores")
+        for size in args.sizes:
+            trees = [ROOT] if args.against is None else [args.against.resolve(), ROOT]
+            for tree in trees:
+                environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
+                command = [sys.executable, __file__, "--child", "--stages"]
+                command += ["--sizes", str(size), "--rounds", str(args.rounds)]
+                subprocess.run(command, env=environment, check=True)
         return
 
     import _metrics_reference as reference

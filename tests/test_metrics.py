@@ -2,6 +2,7 @@
 
 import inspect
 import math
+import threading
 
 import numpy as np
 import pytest
@@ -418,3 +419,72 @@ def test_the_decimated_tensor_of_a_ramp_is_the_doubled_grids(monkeypatch, angle)
     np.testing.assert_allclose(decimated[0][inside], 144.0, rtol=1e-5)
     np.testing.assert_allclose(decimated[2][inside], np.cos(2 * angle), atol=1e-5)
     np.testing.assert_allclose(decimated[3][inside], np.sin(2 * angle), atol=1e-5)
+
+
+def _poisoned(shape, count=12):
+    """Plane-shaped arrays of every dtype the maps use, filled with values no map holds."""
+    arrays = []
+    for _ in range(count):
+        arrays.append(np.full(shape, np.nan))
+        arrays.append(np.full(shape, np.nan, dtype=np.float32))
+        arrays.append(np.frombuffer(np.full(shape, 7, np.uint8).tobytes(), bool).reshape(shape))
+    return [np.array(a) for a in arrays]  # arrays of their own (the pool keeps no views)
+
+
+def test_maps_made_in_the_arrays_of_earlier_maps_are_the_same(cases, monkeypatch):
+    """Comparisons take their arrays from a pool that earlier maps gave back: arrays full of
+    stale values (NaN, bools that are neither 0 nor 1) give the same metrics as new ones."""
+    original, rendered = cases["original"], cases["labyrinth"]
+    monkeypatch.setattr(metrics, "_SHARED_POOL", metrics._Pool(pixel_bytes=10**6))
+    expected = metrics.Comparison(original, workers=1).describe(rendered)
+    metrics._SHARED_POOL.clear()
+    metrics._SHARED_POOL.give(_poisoned(original.shape))
+    comparison = metrics.Comparison(original, workers=2)
+    assert metrics._SHARED_POOL.nbytes < 12 * 13 * original.size  # arrays were taken
+    for _ in range(2):  # the second pass on the arrays the first gave back
+        assert comparison.describe(rendered) == expected
+
+
+def test_the_pool_keeps_one_shape_a_bounded_number_of_bytes_for_a_while():
+    pool = metrics._Pool(pixel_bytes=20, idle=0.05)
+    pool.give([np.empty((4, 5)), np.empty((4, 5)), np.empty((4, 5)), np.empty((4, 5), "f4")])
+    assert pool.nbytes == (8 + 8 + 4) * 20  # 20 bytes a pixel: a third float64 is not kept
+    kept = pool.take((4, 5), np.float32)
+    assert kept.dtype == np.float32 and pool.nbytes == 16 * 20
+    assert pool.take((5, 4), np.float64).shape == (5, 4)  # another shape: a new array
+    pool.give([np.empty((3, 3)), np.empty((4, 5))[:, :2].copy()])
+    assert pool.nbytes == 8 * 8  # the last shape given back only
+    pool.give([np.ones(9).reshape(3, 3)])  # a view: not kept (its base may be in use)
+    assert pool.nbytes == 8 * 8
+    for _ in range(1000):  # the timer drops the arrays 0.05 s after the last given back
+        if pool.nbytes == 0:
+            break
+        threading.Event().wait(0.01)
+    assert pool.nbytes == 0
+
+
+def test_a_comparison_gives_its_originals_maps_back_when_it_is_gone(cases, monkeypatch):
+    import gc
+
+    original, rendered = cases["original"], cases["labyrinth"]
+    monkeypatch.setattr(metrics, "_SHARED_POOL", metrics._Pool(pixel_bytes=10**6))
+    comparison = metrics.Comparison(original, workers=1)
+    comparison.describe(rendered)
+    after_pass = metrics._SHARED_POOL.nbytes  # the rendering's maps
+    assert after_pass > 0
+    del comparison
+    gc.collect()
+    assert metrics._SHARED_POOL.nbytes > after_pass  # the original's plane and maps too
+
+
+def test_a_finalizer_gives_arrays_back_without_waiting_for_the_pool():
+    """The garbage collector may finalize a Comparison in a thread inside the pool (holding
+    its lock): the arrays wait for the pool's next use instead of a deadlock."""
+    pool = metrics._Pool(idle=60.0)
+    with pool._lock:  # held, as by a thread inside give()
+        finalizer = threading.Thread(target=pool.give_later, args=([np.empty((4, 5))],))
+        finalizer.start()
+        finalizer.join(timeout=30)
+        assert not finalizer.is_alive()  # it did not wait for the lock
+    assert pool.nbytes == 8 * 20  # kept at the pool's next use
+    pool.clear()

@@ -426,6 +426,45 @@ def _smooth_block(
             _gauss_line(ext[: tile + 2 * radius], radius, weights, out)
 
 
+@njit(cache=True, nogil=True)
+def local_mean_band(plane, weights, where, flags, y0, y1):
+    """``flags = plane > G * plane`` (scipy's Gaussian of ``weights``, ``reflect``: its
+    floats) on rows ``[y0, y1)``, on the rows of the wall pass's column tiles (``X_TILE``)
+    that hold a True pixel of ``where``; False on the others."""
+    height, width = plane.shape
+    radius = weights.shape[0] - 1
+    span = X_TILE + 2 * radius
+    ring = np.empty((2 * radius + 1, span))
+    column = np.empty(span)
+    ext = np.empty(span)
+    result = np.empty((Y_BLOCK, X_TILE))
+    needed = np.empty(Y_BLOCK, dtype=np.bool_)
+    no_lag = LAG_DY[0]  # not a compile-time constant (see smooth_band)
+    mode = no_lag + MODE_LOCAL_MEAN
+    for x0 in range(0, width, X_TILE):
+        x1 = min(width, x0 + X_TILE)
+        for b0 in range(y0, y1, Y_BLOCK):
+            b1 = min(y1, b0 + Y_BLOCK)
+            any_row = False
+            for y in range(b0, b1):
+                needed[y - b0] = _any_above(where[y, x0:x1], False)
+                any_row = any_row or needed[y - b0]
+            flags[b0:b1, x0:x1] = False
+            if not any_row:
+                continue
+            _smooth_block(
+                plane, plane, mode, no_lag, no_lag, 0.5, weights, b0, b1, x0, x1, ring, column,
+                ext, result, needed,
+            )  # fmt: skip
+            for y in range(b0, b1):
+                if needed[y - b0]:
+                    source = plane[y, x0:x1]
+                    mean = result[y - b0]
+                    out = flags[y, x0:x1]
+                    for i in range(x1 - x0):
+                        out[i] = source[i] > mean[i]
+
+
 #: Bound on the float32 error of a smoothed lag product, in units of ``G * |product|``:
 #: the products and both 1-D passes accumulate about 28 roundings of 2**-24; twice that.
 FLOAT32_ERROR = 64 * 2.0**-24
@@ -455,7 +494,7 @@ def smooth_band(
     """The wall pass (or one of its parts) on rows ``[y0, y1)``.
 
     ``MODE_WALLS``: ``energy = G * h**2`` and ``flags`` = the wall map;
-    ``MODE_ENERGY``: ``energy`` only; ``MODE_LOCAL_MEAN``: ``flags = plane > G * plane``.
+    ``MODE_ENERGY``: ``energy`` only (:func:`local_mean_band` makes ``MODE_LOCAL_MEAN``'s).
     Returns the count of True flags and the number of pixels whose wall
     decision was recomputed exactly; ``sums[y, 0]`` gets the sum of ``energy[y]``.
 
@@ -490,38 +529,6 @@ def smooth_band(
     count = 0
     exact = 0
     half = 0.5
-    if mode == MODE_LOCAL_MEAN:
-        for x0 in range(0, width, X_TILE):
-            x1 = min(width, x0 + X_TILE)
-            for b0 in range(y0, y1, Y_BLOCK):
-                b1 = min(y1, b0 + Y_BLOCK)
-                _smooth_block(
-                    plane,
-                    plane,
-                    mode,
-                    no_lag,
-                    no_lag,
-                    half,
-                    weights,
-                    b0,
-                    b1,
-                    x0,
-                    x1,
-                    ring,
-                    column,
-                    ext,
-                    result,
-                    every_row,
-                )
-                for y in range(b0, b1):
-                    source = plane[y, x0:x1]
-                    mean = result[y - b0]
-                    out = flags[y, x0:x1]
-                    for i in range(x1 - x0):
-                        above_mean = source[i] > mean[i]
-                        out[i] = above_mean
-                        count += above_mean
-        return count, exact
     # the energy of the band, and (for the bound) of the 4 rows on each side (the longest
     # lag), which belong to the neighbouring bands: in ``halo`` (rows e0 + k and y1 + k)
     reach = 4
@@ -1196,6 +1203,30 @@ def _derive(rr, rc, cc, strength, coherent, cosine, sine):
 
 
 @njit(cache=True, nogil=True)
+def _derive_where(rr, rc, cc, mask, start, strength, coherent, cosine, sine):
+    """:func:`_derive` at the True pixels of ``mask`` only, written one after the other
+    from index ``start`` of the outputs (the components gathered first, then derived in
+    one loop)."""
+    count = 0
+    for x in range(mask.shape[0]):
+        if mask[x]:
+            rr[count] = rr[x]  # count <= x: a component is read before it is overwritten
+            rc[count] = rc[x]
+            cc[count] = cc[x]
+            count += 1
+    end = start + count
+    _derive(
+        rr[:count],
+        rc[:count],
+        cc[:count],
+        strength[start:end],
+        coherent[start:end],
+        cosine[start:end],
+        sine[start:end],
+    )
+
+
+@njit(cache=True, nogil=True)
 def orientation_band(plane, scale, weights, mode, needed, out0, out1, out2, out3, y0, y1):
     """Structure tensor of ``zoom(plane, 2)`` at the even doubled pixels of rows ``[y0, y1)``.
 
@@ -1320,7 +1351,7 @@ def _add_doubled(
 
 @njit(cache=True, nogil=True)
 def _decimated_tile(
-    plane, scale, weights, needed, tile_index, x0, x1, y0, y1, out0, out1, out2, out3
+    plane, scale, weights, needed, starts, mask, tile_index, x0, x1, y0, y1, out0, out1, out2, out3
 ):
     """:func:`decimated_tensor_band` on the output columns ``[x0, x1)`` (tile ``tile_index``)."""
     height = plane.shape[0]
@@ -1427,19 +1458,34 @@ def _decimated_tile(
             upper[j] = r % ring_rows if r <= height else zero_slot
         for c in range(3):
             _gauss_rows(ring[c], lower, upper, y % ring_rows, weights, tensor[c])
-        _derive(
-            tensor[0],
-            tensor[1],
-            tensor[2],
-            out0[y, x0:x1],
-            out1[y, x0:x1],
-            out2[y, x0:x1],
-            out3[y, x0:x1],
-        )
+        if starts.shape[0] == 0:
+            _derive(
+                tensor[0],
+                tensor[1],
+                tensor[2],
+                out0[y, x0:x1],
+                out1[y, x0:x1],
+                out2[y, x0:x1],
+                out3[y, x0:x1],
+            )
+        else:
+            _derive_where(
+                tensor[0],
+                tensor[1],
+                tensor[2],
+                mask[y, x0:x1],
+                starts[y, tile_index],
+                out0[0],
+                out1[0],
+                out2[0],
+                out3[0],
+            )
 
 
 @njit(cache=True, nogil=True)
-def decimated_tensor_band(plane, scale, weights, needed, out0, out1, out2, out3, y0, y1):
+def decimated_tensor_band(
+    plane, scale, weights, needed, starts, mask, out0, out1, out2, out3, y0, y1
+):
     """The contours' structure tensor (``TENSOR_DERIVED`` maps) on rows ``[y0, y1)``, decimated.
 
     The Sobel products of ``zoom(plane, 2)`` (as :func:`orientation_band`
@@ -1453,13 +1499,20 @@ def decimated_tensor_band(plane, scale, weights, needed, out0, out1, out2, out3,
     Gaussian linearly interpolated between its even taps), and the
     Gaussian has half the taps, on a quarter of the pixels. ``needed`` and
     the outputs as in :func:`orientation_band` (``TENSOR_DERIVED``).
+
+    With ``starts`` of shape ``needed.shape`` (not empty), the maps are
+    written at the True pixels of ``mask`` only, one after the other in
+    row-major order: the outputs are single rows, and the pixels of row y
+    in tile k begin at index ``starts[y, k]`` (see :func:`mask_starts`).
     """
     width = plane.shape[1]
     count = needed.shape[1]
     for k in range(count):
         x0 = (k * width) // count
         x1 = ((k + 1) * width) // count
-        _decimated_tile(plane, scale, weights, needed, k, x0, x1, y0, y1, out0, out1, out2, out3)
+        _decimated_tile(
+            plane, scale, weights, needed, starts, mask, k, x0, x1, y0, y1, out0, out1, out2, out3
+        )
 
 
 def tensor_tiles(width: int, radius: int) -> int:
@@ -1488,6 +1541,28 @@ def tiles_with(mask, needed, y0, y1):
                     found = True
                     break
             needed[y, k] = found
+
+
+@njit(cache=True, nogil=True)
+def mask_counts(mask, counts, y0, y1):
+    """``counts[y, k]`` = the True pixels of ``mask`` in row y of column tile k (see
+    :func:`orientation_band`), for rows ``[y0, y1)``."""
+    width = mask.shape[1]
+    count = counts.shape[1]
+    for y in range(y0, y1):
+        row = mask[y]
+        for k in range(count):
+            total = 0
+            for x in range((k * width) // count, ((k + 1) * width) // count):
+                total += row[x]
+            counts[y, k] = total
+
+
+def mask_starts(counts: np.ndarray) -> np.ndarray:
+    """Where the pixels of each row of each tile begin when a mask's pixels are written one
+    after the other in row-major order (``counts`` from :func:`mask_counts`)."""
+    ends = np.cumsum(counts.ravel()).reshape(counts.shape)
+    return ends - counts
 
 
 # --- reductions --------------------------------------------------------------------------
@@ -1621,16 +1696,16 @@ def _pair_counts(walls, next_walls, signs, next_signs):
 
 
 @njit(cache=True, nogil=True)
-def wall_weighted_sums(walls, strength, coherent, sums, y0, y1):
-    """``sums[y]``: ``sum(coherent * walls)`` and ``sum(strength * walls)`` over row y."""
-    width = walls.shape[1]
+def wall_weighted_sums(row_starts, strength, coherent, sums, y0, y1):
+    """``sums[y]``: ``sum(coherent * walls)`` and ``sum(strength * walls)`` over row y, from
+    maps held at the wall pixels only (row y's from index ``row_starts[y]`` to
+    ``row_starts[y + 1]``, in the order of their columns)."""
     for y in range(y0, y1):
         numerator = 0.0
         denominator = 0.0
-        for x in range(width):
-            if walls[y, x]:
-                numerator += coherent[y, x]
-                denominator += strength[y, x]
+        for i in range(row_starts[y], row_starts[y + 1]):
+            numerator += coherent[i]
+            denominator += strength[i]
         sums[y, 0] = numerator
         sums[y, 1] = denominator
 
@@ -1638,6 +1713,7 @@ def wall_weighted_sums(walls, strength, coherent, sums, y0, y1):
 @njit(cache=True, nogil=True)
 def alignment_sums(
     walls,
+    row_starts,
     wall_coherent,
     wall_cos,
     wall_sin,
@@ -1651,20 +1727,24 @@ def alignment_sums(
     """``sums[y]``: ``sum(cos**2(angle difference) * weight)`` and ``sum(weight)`` on the
     walls of row y, weight = wall coherence * strength * contour coherence * strength.
 
-    ``cos**2(a - b) = (1 + cos 2a cos 2b + sin 2a sin 2b) / 2``.
+    The walls' maps are held at the wall pixels only (as in
+    :func:`wall_weighted_sums`, row y's from index ``row_starts[y]``), the
+    contours' are planes. ``cos**2(a - b) = (1 + cos 2a cos 2b + sin 2a sin 2b) / 2``.
     """
     width = walls.shape[1]
     for y in range(y0, y1):
         numerator = 0.0
         denominator = 0.0
+        i = row_starts[y]
         for x in range(width):
             if walls[y, x]:
-                weight = np.float64(wall_coherent[y, x]) * np.float64(contour_coherent[y, x])
+                weight = np.float64(wall_coherent[i]) * np.float64(contour_coherent[y, x])
                 cosine = (
-                    np.float64(wall_cos[y, x]) * contour_cos[y, x]
-                    + np.float64(wall_sin[y, x]) * contour_sin[y, x]
+                    np.float64(wall_cos[i]) * contour_cos[y, x]
+                    + np.float64(wall_sin[i]) * contour_sin[y, x]
                 )
                 numerator += 0.5 * (1.0 + cosine) * weight
                 denominator += weight
+                i += 1
         sums[y, 0] = numerator
         sums[y, 1] = denominator

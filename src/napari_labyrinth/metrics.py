@@ -23,11 +23,13 @@ of :func:`orientation`'s (see :mod:`._metrics_kernels` and ``docs/metrics.md``).
 
 from __future__ import annotations
 
+import _thread
+import collections
 import math
 import os
 import threading
+import weakref
 from collections.abc import Callable, Iterator
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -117,6 +119,11 @@ def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) ->
     a band of rows that holds more work (walls, texture) does not hold up
     the others. The kernels' results do not depend on the bands; the list
     of their return values is in the order of the bands.
+
+    The calling thread starts on the bands at once and waits only for the
+    bands other threads took: a helper thread that runs late (its core
+    busy: a thread's start waits 0.2 ms for it to run, milliseconds when
+    the other core is busy) finds the bands taken and ends without work.
     """
     workers = _default_workers() if workers is None else max(1, int(workers))
     count = max(1, min(_BANDS_PER_WORKER * workers, height // _MIN_BAND_ROWS))
@@ -124,23 +131,37 @@ def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) ->
         return [kernel(*arguments, 0, height)]
     edges = np.linspace(0, height, count + 1).astype(int).tolist()
     results: list = [None] * count
-    bands = iter(range(count))
-    lock = threading.Lock()
+    failures: list[BaseException] = []
+    state = {"next": 0, "running": 0}
+    changed = threading.Condition()
 
     def work() -> None:
         while True:
-            with lock:
-                index = next(bands, None)
-            if index is None:
-                return
-            results[index] = kernel(*arguments, edges[index], edges[index + 1])
+            with changed:
+                index = state["next"]
+                if index >= count or failures:
+                    return
+                state["next"] = index + 1
+                state["running"] += 1
+            try:
+                results[index] = kernel(*arguments, edges[index], edges[index + 1])
+            except BaseException as exc:  # raised in the calling thread below
+                failures.append(exc)
+            finally:
+                with changed:
+                    state["running"] -= 1
+                    changed.notify_all()
 
-    helpers = min(workers, count) - 1
-    with ThreadPoolExecutor(helpers) as pool:
-        futures = [pool.submit(work) for _ in range(helpers)]
-        work()
-        for future in futures:
-            future.result()
+    for _ in range(min(workers, count) - 1):
+        try:
+            _thread.start_new_thread(work, ())
+        except RuntimeError:  # no thread to be had: the calling thread takes its bands
+            break
+    work()
+    with changed:
+        changed.wait_for(lambda: state["running"] == 0)
+    if failures:
+        raise failures[0]
     return results
 
 
@@ -177,35 +198,96 @@ class _LastPlane:
 
 
 class _Pool:
-    """Arrays handed back by the maps of renderings that are done, for the next ones.
+    """Arrays of maps that are done, for the next maps of the same shape.
 
-    A fresh array costs its page faults (a pass writes about 45 bytes a
-    pixel of new maps); a stack's passes have the same shape. Thread-safe;
-    keeps at most ``size`` bytes.
+    A fresh array costs its page faults: a first describe writes about 65
+    bytes a pixel of new maps, and the kernel may have to compact memory to
+    back them with huge pages (``docs/metrics.md``). The passes of a stack,
+    and the next original of the same shape, take the arrays of the last
+    ones instead. Thread-safe. Keeps the arrays of one shape only (those of
+    the last array given back), at most ``pixel_bytes`` bytes a pixel of it,
+    and drops them all ``idle`` seconds after the last array was given back
+    (a timer thread waits that long).
     """
 
-    def __init__(self, size: int = 256 * 2**20):
-        self._size = size
-        self._arrays: dict[tuple, list[np.ndarray]] = {}
+    def __init__(self, pixel_bytes: int = 96, idle: float = 10.0):
+        self._pixel_bytes = pixel_bytes
+        self._idle = idle
+        self._shape: tuple | None = None
+        self._arrays: dict[str, list[np.ndarray]] = {}
+        self._returned: collections.deque = collections.deque()  # see give_later
+        self._timer: threading.Timer | None = None
         self._lock = threading.Lock()
 
     def take(self, shape: tuple, dtype) -> np.ndarray:
-        key = (tuple(shape), np.dtype(dtype).str)
+        shape = tuple(shape)
         with self._lock:
-            arrays = self._arrays.get(key)
+            self._drain()
+            arrays = self._arrays.get(np.dtype(dtype).str) if shape == self._shape else None
             if arrays:
                 return arrays.pop()
         return np.empty(shape, dtype=dtype)
 
     def give(self, arrays) -> None:
         with self._lock:
+            self._drain()
+            self._keep(arrays)
+            self._restart_timer()
+
+    def give_later(self, arrays) -> None:
+        """:meth:`give` that never waits: for finalizers, which the garbage collector may
+        run in any thread, even one inside :meth:`give` (it holds the lock)."""
+        self._returned.append(arrays)
+        if self._lock.acquire(blocking=False):
+            try:
+                self._drain()
+                self._restart_timer()
+            finally:
+                self._lock.release()
+
+    def clear(self) -> None:
+        """Drop every array kept."""
+        with self._lock:
+            self._returned.clear()
+            self._arrays.clear()
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the arrays kept."""
+        with self._lock:
+            self._drain()
+            return sum(a.nbytes for v in self._arrays.values() for a in v)
+
+    def _drain(self) -> None:
+        """Keep the arrays given back by :meth:`give_later` (the lock held)."""
+        while self._returned:
+            self._keep(self._returned.popleft())
+
+    def _keep(self, arrays) -> None:
+        for array in arrays:
+            if array.base is not None:
+                continue  # a view: its base may be in use
+            if array.shape != self._shape:
+                self._arrays.clear()
+                self._shape = array.shape
             kept = sum(a.nbytes for v in self._arrays.values() for a in v)
-            for array in arrays:
-                if kept + array.nbytes > self._size or array.base is not None:
-                    continue
-                array.flags.writeable = True
-                self._arrays.setdefault((array.shape, array.dtype.str), []).append(array)
-                kept += array.nbytes
+            if kept + array.nbytes > self._pixel_bytes * array.size:
+                continue
+            array.flags.writeable = True
+            self._arrays.setdefault(array.dtype.str, []).append(array)
+
+    def _restart_timer(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+        self._timer = threading.Timer(self._idle, self.clear)
+        self._timer.name = "metrics-pool-release"
+        self._timer.daemon = True
+        self._timer.start()
+
+
+#: The pool of every :class:`Comparison`: a stack's passes and the next original of the
+#: same shape reuse the memory of the last ones.
+_SHARED_POOL = _Pool()
 
 
 class _Maps:
@@ -373,7 +455,7 @@ class _Maps:
             flags,
             sums,
         )
-        return results, (math.fsum(sums[:, 0]) if mode != kernels.MODE_LOCAL_MEAN else math.nan)
+        return results, math.fsum(sums[:, 0])
 
     def walls(self) -> tuple[np.ndarray, np.ndarray, float]:
         """The wall map, the energy ``G_2 * h**2`` and the energy's sum."""
@@ -408,27 +490,34 @@ class _Maps:
         return int(np.count_nonzero(walls)) / walls.size
 
     def above_local_mean(self) -> np.ndarray:
-        """``g > G_2 * g``: where the plane is above its local mean."""
+        """``g > G_2 * g``: where the plane is above its local mean, at the wall pixels
+        (the rows of column tiles that hold walls; False on the others)."""
 
         def compute():
             positive = self._empty(bool)
-            self._smooth(_kernels().MODE_LOCAL_MEAN, np.empty((1, 1)), positive)
+            walls = self.walls()[0]
+            self._bands(
+                _kernels().local_mean_band, self.plane, _weights(WINDOW_SIGMA), walls, positive
+            )
             return positive
 
         return self._get("above_local_mean", compute)
 
     def wall_orientation(self) -> tuple[np.ndarray, ...]:
-        """Strength, coherence * strength, cos and sin of twice the angle, of ``h``, on the walls.
+        """Where each row's wall pixels begin, then strength, coherence * strength, cos and
+        sin of twice the angle, of ``h``, at the wall pixels only.
 
-        The strengths are those of ``h`` times a power of two (ratios of them are exact):
-        the tensor reads ``h``'s float32 copy of the wall pass (:meth:`_lag_plane`).
+        The four maps hold the wall pixels one after the other in row-major
+        order, row y's from index ``row_starts[y]`` to ``row_starts[y + 1]``
+        (the maps are read on the walls only: a tenth of a plane's memory
+        where walls cover a tenth of it). The strengths are those of ``h``
+        times a power of two (ratios of them are exact): the tensor reads
+        ``h``'s float32 copy of the wall pass (:meth:`_lag_plane`).
         """
 
         def compute():
             walls = self.walls()[0]
-            return _wall_orientation(
-                self._lag_plane(), 1.0, WINDOW_SIGMA, self.workers, walls, self._empty
-            )
+            return _wall_orientation(self._lag_plane(), 1.0, WINDOW_SIGMA, self.workers, walls)
 
         return self._get("wall_orientation", compute)
 
@@ -557,11 +646,21 @@ def _tiles_with(walls: np.ndarray, tiles: int, workers) -> np.ndarray:
     return needed
 
 
-def _wall_orientation(plane, scale, sigma, workers, walls, empty):
-    """The derived tensor maps (``TENSOR_DERIVED``) of ``plane * scale``, on ``walls`` (at least)."""
-    needed = _tiles_with(walls, _tensor_tiles(plane.shape[1], sigma), workers)
-    outputs = tuple(empty(np.float32) for _ in range(4))
-    return _derived_tensor(plane, scale, sigma, workers, needed, outputs)
+def _wall_orientation(plane, scale, sigma, workers, walls):
+    """The derived tensor maps (``TENSOR_DERIVED``) of ``plane * scale`` at the pixels of
+    ``walls`` only, after the rows' starts (see :meth:`_Maps.wall_orientation`)."""
+    kernels = _kernels()
+    counts = np.empty((walls.shape[0], _tensor_tiles(plane.shape[1], sigma)), dtype=np.int64)
+    _in_bands(kernels.mask_counts, walls.shape[0], workers, walls, counts)
+    starts = kernels.mask_starts(counts)
+    row_starts = np.append(starts[:, 0], starts[-1, -1] + counts[-1, -1])
+    outputs = tuple(np.empty((1, int(row_starts[-1])), dtype=np.float32) for _ in range(4))
+    if _decimated(sigma):
+        _derived_tensor(plane, scale, sigma, workers, counts > 0, outputs, starts, walls)
+        return (row_starts, *(output[0] for output in outputs))
+    planes = tuple(np.empty(plane.shape, dtype=np.float32) for _ in range(4))
+    _derived_tensor(plane, scale, sigma, workers, counts > 0, planes)
+    return (row_starts, *(map_[walls] for map_ in planes))
 
 
 def _decimated(sigma: float) -> bool:
@@ -581,13 +680,14 @@ def _tensor_tiles(width: int, sigma: float) -> int:
     return _kernels().tensor_tiles(width, _tensor_weights(sigma).shape[0] - 1)
 
 
-def _derived_tensor(plane, scale, sigma, workers, needed, outputs):
+def _derived_tensor(plane, scale, sigma, workers, needed, outputs, starts=None, mask=None):
     """The derived maps (``TENSOR_DERIVED``) of the structure tensor of ``plane * scale`` at
     ``sigma`` into ``outputs``, on the rows of column tiles ``needed``.
 
     From ``sigma = _DECIMATED_SIGMA`` on, the decimated tensor
-    (``_metrics_kernels.decimated_tensor_band``); below, the doubled grid's
-    (:func:`orientation`'s).
+    (``_metrics_kernels.decimated_tensor_band``; with ``starts``, at the
+    pixels of ``mask`` only, one after the other); below, the doubled
+    grid's (:func:`orientation`'s).
     """
     kernels = _kernels()
     if not _decimated(sigma):
@@ -595,6 +695,9 @@ def _derived_tensor(plane, scale, sigma, workers, needed, outputs):
             plane, scale, sigma, kernels.TENSOR_DERIVED, workers, needed, outputs
         )
     weights = _tensor_weights(sigma)
+    if starts is None:
+        starts = np.empty((0, 0), dtype=np.int64)
+        mask = np.empty((0, 0), dtype=bool)
     _in_bands(
         kernels.decimated_tensor_band,
         plane.shape[0],
@@ -603,6 +706,8 @@ def _derived_tensor(plane, scale, sigma, workers, needed, outputs):
         scale,
         weights,
         needed,
+        starts,
+        mask,
         *outputs,
     )
     return outputs
@@ -611,7 +716,7 @@ def _derived_tensor(plane, scale, sigma, workers, needed, outputs):
 # --- the maps of renderings, shared between the single metrics ---------------------------
 
 #: Maps of the last plane given to the single metrics, by content (a plane's maps take
-#: about 45 bytes a pixel: one is kept).
+#: about 30 to 40 bytes a pixel: one is kept).
 _RENDERED = _LastPlane()
 #: The :class:`Comparison` of the last original given to :func:`describe`, by content.
 _ORIGINALS = _LastPlane()
@@ -757,10 +862,9 @@ def orientation_coherence(image) -> float:
 def _orientation_coherence(maps: _Maps) -> float:
     if maps.cover() < MIN_COVER or not maps.finite:
         return math.nan  # NaN or infinity in h: the weighted sum is NaN
-    walls, _, _ = maps.walls()
-    strength, coherent, _, _ = maps.wall_orientation()
+    row_starts, strength, coherent, _, _ = maps.wall_orientation()
     sums = maps._row_sums(2)
-    maps._bands(_kernels().wall_weighted_sums, walls, strength, coherent, sums)
+    maps._bands(_kernels().wall_weighted_sums, row_starts, strength, coherent, sums)
     numerator = math.fsum(sums[:, 0])
     denominator = math.fsum(sums[:, 1])
     return numerator / denominator if denominator > 0 else math.nan
@@ -794,12 +898,13 @@ def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTO
     if after.cover() < MIN_COVER or not (after.finite and before.finite):
         return math.nan  # NaN or infinity in either image: the weighted sum is NaN
     walls, _, _ = after.walls()
-    _, wall_coherent, wall_cos, wall_sin = after.wall_orientation()
+    row_starts, _, wall_coherent, wall_cos, wall_sin = after.wall_orientation()
     _, contour_coherent, contour_cos, contour_sin = before.contours(contour_sigma, walls)
     sums = after._row_sums(2)
     after._bands(
         _kernels().alignment_sums,
         walls,
+        row_starts,
         wall_coherent,
         wall_cos,
         wall_sin,
@@ -893,10 +998,15 @@ class Comparison:
     """
 
     def __init__(self, original, *, workers: int | None = None):
-        plane = _float_plane(_plane(original, "original"), copy=True)
-        self._maps = _Maps(plane, workers, walls=False)  # the renderings' walls only
+        array = _plane(original, "original")
+        self._pool = _SHARED_POOL
+        plane = self._pool.take(array.shape, np.float64)
+        np.copyto(plane, array, casting="unsafe")  # real dtypes: exact in float64
+        # the renderings' walls only; the maps' arrays go back to the pool with the object
+        self._maps = _Maps(plane, workers, self._pool, walls=False)
+        self._maps._taken.append(plane)
+        weakref.finalize(self, self._pool.give_later, self._maps._taken)
         self.workers = workers
-        self._pool = _Pool()
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -908,7 +1018,9 @@ class Comparison:
         ``rendered`` is checked and copied by the call; each metric's work
         is done when the generator is asked for it, so a caller that stops
         iterating (or closes the generator) between two metrics skips the
-        work of the rest. No thread outlives a step.
+        work of the rest. No thread works after a step (a helper that starts
+        late ends without work, see ``_in_bands``; the timer that frees the
+        arrays kept for the next maps, ``_Pool``, only waits).
 
         Examples
         --------
