@@ -10,11 +10,14 @@ nothing; the machine's load is printed before and after. Parts:
   the last result in place ("replace last", the default) and when it adds a layer;
   and, for comparison, napari alone adding a layer of the same size (no plugin);
 - ``stack``: 4 passes with metrics, 2048²; the time to cancel;
-- ``planes``: a 20-plane 2048² movie, 4 passes (the first run adds the layer).
+- ``planes``: a 20-plane 2048² movie, 4 passes (the first run adds the layer),
+  interleaved with and without the widget's hold on Python's full garbage collections.
 
 Each run is watched by a 20 ms QTimer: the longest gap between its ticks while the
 worker renders, and from the last step to 0.5 s after the end (the layer added or
-updated, then drawn), with the longest single draw of the canvas by vispy in that time.
+updated, then drawn), with the longest single draw of the canvas by vispy in that time
+and Python's full garbage collections. Under a run's row, each stall over 100 ms is
+listed with what the main thread was seen running in it (sampled every 10 ms).
 Under Xvfb every repaint of the window goes through software OpenGL.
 """
 
@@ -88,9 +91,18 @@ class DrawMeter:
 
 
 class GapMeter:
-    """The longest interval between ticks of a 20 ms QTimer: how long the event loop stalled."""
+    """The longest interval between ticks of a 20 ms QTimer: how long the event loop stalled.
 
-    def __init__(self) -> None:
+    With ``explain``, a thread looks every 10 ms and, while the loop has not ticked for
+    over 60 ms, notes what the main thread is running (its innermost frames):
+    :attr:`stalls` then holds, for each gap over 100 ms, its start, length and the frames
+    seen (none seen: the main thread waited for the GIL, or for the CPU).
+    """
+
+    #: A gap longer than this is a stall.
+    STALL = 0.1
+
+    def __init__(self, explain: bool = False) -> None:
         from qtpy.QtCore import QTimer
 
         self.timer = QTimer()
@@ -98,20 +110,49 @@ class GapMeter:
         self.timer.timeout.connect(self._tick)
         self.last = 0.0
         self.longest = 0.0
+        self.explain = explain
+        self.stalls: list[tuple[float, float, list[str]]] = []
+        self._samples: list[tuple[float, str]] = []
+        self._on = False
 
     def _tick(self) -> None:
         now = time.perf_counter()
         if self.last:
             self.longest = max(self.longest, now - self.last)
+            if now - self.last > self.STALL:
+                seen = [f for t, f in self._samples if self.last <= t <= now]
+                self.stalls.append((self.last, now - self.last, list(dict.fromkeys(seen))))
         self.last = now
+
+    def _sample(self) -> None:
+        import traceback
+
+        main = threading.main_thread().ident
+        while self._on:
+            time.sleep(0.01)
+            if self.last and time.perf_counter() - self.last > 0.06:
+                frame = sys._current_frames().get(main)
+                if frame is not None:
+                    frames = traceback.extract_stack(frame)[-3:]
+                    where = " <- ".join(
+                        f"{f.filename.rsplit('site-packages/', 1)[-1].rsplit('/src/', 1)[-1]}"
+                        f":{f.lineno} {f.name}"
+                        for f in reversed(frames)
+                    )
+                    self._samples.append((time.perf_counter(), where))
 
     def __enter__(self):
         self.last, self.longest = 0.0, 0.0
+        self.stalls, self._samples = [], []
         self.timer.start()
+        if self.explain:
+            self._on = True
+            threading.Thread(target=self._sample, name="gap-sampler", daemon=True).start()
         return self
 
     def __exit__(self, *_exc) -> None:
         self.timer.stop()
+        self._on = False
 
 
 class CollectionMeter:
@@ -195,7 +236,7 @@ def _timed_run(widget) -> dict[str, float]:
     """
     worker = widget.run(start=False)
     total_steps = widget.progress_bar.maximum()
-    gap = GapMeter()
+    gap = GapMeter(explain=True)
     marks: dict[str, float] = {}
     add_result = widget._add_result
 
@@ -237,6 +278,7 @@ def _timed_run(widget) -> dict[str, float]:
         "gap_showing": gap.longest,
         "drawing": draw.longest,
         "collections": collections.summary(),
+        "stalls": [(at - started, length, seen) for at, length, seen in gap.stalls],
     }
 
 
@@ -356,6 +398,11 @@ def _print_runs(runs: list[dict]) -> None:
             f" {1000 * r['gap_showing']:17.0f} ms {1000 * r['drawing']:17.0f} ms"
             f"   {r['collections']}"
         )
+        for at, length, seen in r.get("stalls", []):
+            where = "; ".join(seen) if seen else "nothing seen (waiting for the GIL or the CPU)"
+            print(
+                f"        stall of {1000 * length:.0f} ms at {at:+.2f} s: main thread in {where}"
+            )
 
 
 def main(argv: list[str] | None = None) -> int:
