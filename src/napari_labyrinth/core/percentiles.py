@@ -63,10 +63,12 @@ def integer_percentiles(values: np.ndarray, q: Sequence[float]) -> list[float]:
     """``[float(v) for v in np.percentile(values, q)]`` of 8- or 16-bit integers, by counting.
 
     The values of the ranks np.percentile interpolates between are counted:
-    in the tails that hold them (:func:`tail_rank_values`) when these are
-    few, otherwise in one count of every value (a numba loop and a few
-    operations on the 256 or 65536 counts). Either way, no copy of the
-    image is partitioned as numpy does.
+    in one sweep, within windows of values a sample places around them
+    (:func:`sampled_rank_values`), or where the sample's windows miss them, in
+    the tails that hold them (:func:`tail_rank_values`) when these are few,
+    otherwise in one count of every value (a numba loop and a few operations
+    on the 256 or 65536 counts). Either way, no copy of the image is
+    partitioned as numpy does.
     """
     from ._tone_loops import count_values  # numba is imported on first use only
 
@@ -78,7 +80,9 @@ def integer_percentiles(values: np.ndarray, q: Sequence[float]) -> list[float]:
     info = np.iinfo(dtype)
     flat = values.reshape(-1)
     ranks, gammas = linear_ranks(flat.size, q)
-    ranked = tail_rank_values(flat, ranks)
+    ranked = sampled_rank_values(flat, ranks)
+    if ranked is None:
+        ranked = tail_rank_values(flat, ranks)
     if ranked is None:
         counts = np.zeros(int(info.max) - int(info.min) + 1, dtype=np.int64)
         count_values(flat, int(info.min), counts)
@@ -113,5 +117,38 @@ def tail_rank_values(flat: np.ndarray, ranks: Sequence[int]) -> list[int] | None
     values = np.empty(len(ranks), np.int64)
     bins = ((int(info.max) - offset) >> shift) + 1
     if not tail_values(flat, offset, shift, bins, np.asarray(ranks, np.int64), values):
+        return None
+    return [int(v) for v in values]
+
+
+#: Spots of ``SPOT_VALUES`` values that ``sampled_rank_values`` samples: enough that
+#: its windows are narrow (few blocks counted), few enough that the sample costs
+#: little beside the sweep; arrays of fewer than 64 values a spot are not sampled.
+SAMPLE_SPOTS = 4096
+
+
+def sampled_rank_values(
+    flat: np.ndarray, ranks: Sequence[int], spots: int = SAMPLE_SPOTS
+) -> list[int] | None:
+    """The values of ``ranks`` among the 8- or 16-bit integers ``flat`` in one sweep
+    (``_tone_loops.sampled_tail_values``), or None where its sample's windows miss a
+    rank, the values are noisy, or fewer than ``64 * spots``.
+
+    A sample of the values places a window of values around the low ranks and
+    one around the high ranks; one sweep counts every value in or below the low
+    window and in or above the high one, in the blocks of values that reach
+    them. A rank's value found in its window is exact whatever the sample was;
+    the counts show whether it lies there.
+    """
+    from ._tone_loops import sampled_tail_values  # numba is imported on first use only
+
+    info = np.iinfo(flat.dtype)
+    offset = int(info.min)
+    shift = max(0, flat.dtype.itemsize * 8 - _COARSE_BITS)
+    bins = ((int(info.max) - offset) >> shift) + 1
+    values = np.empty(len(ranks), np.int64)
+    if not sampled_tail_values(
+        flat, offset, shift, bins, np.asarray(ranks, np.int64), values, spots
+    ):
         return None
     return [int(v) for v in values]
