@@ -2,6 +2,8 @@
 
 - ``count_values``: the histogram of 8- and 16-bit integers, from which
   ``percentiles.integer_percentiles`` takes the default tone limits exactly;
+- ``sampled_tail_values``: the same limits in one sweep, counted in
+  windows of values that a sample places around them;
 - ``block_extremes`` and ``count_tails``: the same limits from the few
   blocks of values that can hold them (``percentiles`` says when), both
   run, with the steps between them, by ``tail_values``;
@@ -286,8 +288,9 @@ def sampled_tail_values(flat, offset, shift, bins, ranks, values, spots):
     low ranks (2 r < n), ``[start, ceiling)`` for the others, wide enough for the
     sample's error. One sweep takes the extremes of every ``EXTREMES_BLOCK`` values
     and, in the blocks that reach a window or beyond, counts every value of the
-    window and those beyond it (``_count_window_below``, ``_count_window_from``). A rank's value is exact when
-    it lies in its window, which the counts show: else False, and nothing is kept.
+    window and those beyond it (``_count_window_below``, ``_count_window_from``). A
+    rank's value is exact when it lies in its window, which the counts show: else
+    False, and nothing is kept.
     """
     n, block = flat.shape[0], EXTREMES_BLOCK
     if n < 64 * spots or spots < 1:
@@ -366,7 +369,7 @@ def sampled_tail_values(flat, offset, shift, bins, ranks, values, spots):
 
 
 #: Widest window of values ``sampled_tail_values`` counts (else the two-sweep route).
-_WIDEST_WINDOW = 1 << 13
+_WIDEST_WINDOW = 1 << 14
 
 #: ``sampled_tail_values`` leaves to the two sweeps a sample of which more than one
 #: spot in ``_DENSE`` reaches a window (a noisy image, whose blocks would be counted
