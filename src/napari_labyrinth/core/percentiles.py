@@ -5,8 +5,11 @@ by partitioning a copy of the whole image; an image of 8- or 16-bit integers
 holds at most 65536 distinct values, so one count of each value gives the
 order statistics, and the interpolation below gives numpy's exact floats.
 The default limits need only the values of low and high ranks: most often
-a first, vectorised pass over blocks of values (their least and greatest)
-shows that a few blocks hold them, and only those are counted.
+a sample places a window of values around them and one sweep counts those
+windows in the few blocks of values that reach them (exact: the counts show
+whether each rank lies in its window); else a first, vectorised pass over
+blocks of values (their least and greatest) shows which few blocks hold
+them, and only those are counted.
 ``lazy.py`` takes the counting route over the blocks of a dask array.
 """
 
