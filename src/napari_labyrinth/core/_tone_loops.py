@@ -391,9 +391,11 @@ def _sample_position(rank, n, sampled, side):
 @njit(inline="always")
 def _bin_edge(below, position, offset, shift):
     """The least value of the coarse bin that holds ``position`` of the sorted sample
-    (``below[k]`` sampled values lie in the bins before k); the first or last bin
-    beyond the sample."""
+    (``below[k]`` sampled values lie in the bins before k); beyond the sample, the
+    bin of its least or greatest value (a window that ends there and misses a rank
+    beyond it shows it: the two sweeps take over)."""
     bins = below.shape[0] - 1
+    position = min(max(position, 0.0), below[bins] - 1.0)
     k = np.searchsorted(below, position, side="right") - 1  # below[k] <= position
     return offset + (min(max(k, 0), bins - 1) << shift)
 
