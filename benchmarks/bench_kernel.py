@@ -20,7 +20,8 @@ Figures are Mpx/s per pass (wall clock, and thread CPU time, which a busy
 machine disturbs less) and ratios; the load average is printed beside them.
 Also: the pure-Python oracle, import time and the first call in a new
 process (cold and warm numba cache); with ``--overhead``, the steps of
-``labyrinth()`` around the pass timed on their own (paper, uint16, 1 pass).
+``labyrinth()`` around the pass timed on their own (paper, uint16, 1 pass),
+and the default tone limits of four kinds of uint16 image.
 Run: ``make bench`` or ``python benchmarks/bench_kernel.py [--size 2048]
 [--repeats 7] [--overhead]``.
 """
@@ -204,6 +205,56 @@ def bench_overhead(size, repeats):
     print(f"  {'labyrinth() - kernel':<34}{around * 1e3:>8.3f} ms  ({load()})")
 
 
+def bench_tone_limits(size, repeats):
+    """The default tone limits of four uint16 images: the one-sweep route of
+    ``integer_percentiles`` against the two sweeps alone (then a count of every
+    value where they give up), interleaved; which route each image takes."""
+    from napari_labyrinth.core._tone_loops import count_values
+    from napari_labyrinth.core.percentiles import (
+        integer_percentiles,
+        linear_ranks,
+        sampled_rank_values,
+        tail_rank_values,
+    )
+    from napari_labyrinth.core.tone_scale import DEFAULT_PERCENTILES
+
+    def two_sweeps(values):
+        flat = values.reshape(-1)
+        ranks, _ = linear_ranks(flat.size, DEFAULT_PERCENTILES)
+        if tail_rank_values(flat, ranks) is None:
+            count_values(flat, 0, np.zeros(65536, np.int64))
+
+    rng = np.random.default_rng(0)
+    ramp = np.add.outer(np.arange(size), np.arange(size)) * (16384 // size)
+    images = {
+        "camera": camera(size, np.uint16),
+        "noise": rng.integers(0, 65536, (size, size)).astype(np.uint16),
+        "gradient + noise": (ramp + rng.integers(0, 500, (size, size))).astype(np.uint16),
+        "dark field, 0.3 % bright": np.where(
+            rng.random((size, size)) < 0.003, 60000, 100 + rng.integers(0, 20, (size, size))
+        ).astype(np.uint16),
+    }
+    print(f"\ndefault tone limits of {size}^2 uint16 images, best of {repeats} interleaved")
+    for name, image in images.items():
+        flat = image.reshape(-1)
+        ranks, _ = linear_ranks(flat.size, DEFAULT_PERCENTILES)
+        route = "one sweep" if sampled_rank_values(flat, ranks) is not None else "fallback"
+        variants = {
+            "integer_percentiles": (
+                image.copy,
+                lambda values: integer_percentiles(values, DEFAULT_PERCENTILES),
+            ),
+            "two sweeps": (image.copy, two_sweeps),
+        }
+        for prepare, run in variants.values():
+            run(prepare())
+        wall, _ = interleaved(variants, repeats)
+        print(
+            f"  {name:<26}{route:<11}integer_percentiles {wall['integer_percentiles'] * 1e3:6.3f}"
+            f" ms, two sweeps {wall['two sweeps'] * 1e3:6.3f} ms  ({load()})"
+        )
+
+
 def subprocess_seconds(code, env):
     result = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True
@@ -253,6 +304,7 @@ def main(argv=None):
     bench_variants(args.size, args.repeats, c_reference.load())
     if args.overhead:
         bench_overhead(args.size, 3 * args.repeats)
+        bench_tone_limits(args.size, 2 * args.repeats)
     if not args.no_start_up:
         bench_start_up()
 
