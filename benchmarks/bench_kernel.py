@@ -19,8 +19,11 @@ processor's cache, so the others' are too.
 Figures are Mpx/s per pass (wall clock, and thread CPU time, which a busy
 machine disturbs less) and ratios; the load average is printed beside them.
 Also: the pure-Python oracle, import time and the first call in a new
-process (cold and warm numba cache). Run: ``make bench`` or
-``python benchmarks/bench_kernel.py [--size 2048] [--repeats 7]``.
+process (cold and warm numba cache); with ``--overhead``, the steps of
+``labyrinth()`` around the pass timed on their own (paper, uint16, 1 pass),
+and the default tone limits of four kinds of uint16 image.
+Run: ``make bench`` or ``python benchmarks/bench_kernel.py [--size 2048]
+[--repeats 7] [--overhead]``.
 """
 
 from __future__ import annotations
@@ -155,6 +158,103 @@ def bench_variants(size, repeats, c):
     print("kernel/C and api/kernel are throughput ratios (targets: >= 0.85 and >= 0.9)")
 
 
+def bench_overhead(size, repeats):
+    """What ``labyrinth()`` does around the pass (paper, uint16, 1 pass), interleaved:
+    the kernel alone, the whole call, and the steps before the pass on their own."""
+    from napari_labyrinth import labyrinth, resolve_parameters
+    from napari_labyrinth._engine import run_pass
+    from napari_labyrinth.core import presets
+    from napari_labyrinth.core.percentiles import linear_ranks, tail_rank_values
+    from napari_labyrinth.core.tone_scale import DEFAULT_PERCENTILES, resolve_tone_scale
+
+    image = camera(size, np.uint16)
+    parameters = resolve_parameters("paper", passes=1)
+    tones = resolve_tone_scale(image, None).to_tones(image)
+    ranks, _ = linear_ranks(image.size, DEFAULT_PERCENTILES)
+    variants = {
+        "kernel (run_pass on the tones)": (
+            tones.copy,
+            lambda work: run_pass(work, parameters, has_nonfinite=False),
+        ),
+        "labyrinth()": (
+            image.copy,
+            lambda values: labyrinth(values, preset="paper", passes=1, workers=1),
+        ),
+        "default tone limits": (image.copy, lambda values: resolve_tone_scale(values, None)),
+        "  the same by two sweeps": (
+            image.copy,
+            lambda values: tail_rank_values(values.reshape(-1), ranks),
+        ),
+        "resolve_parameters, first call": (
+            image.copy,
+            lambda values: (presets._RESOLVED.clear(), resolve_parameters("paper", passes=1)),
+        ),
+        "resolve_parameters, again": (
+            image.copy,
+            lambda values: resolve_parameters("paper", passes=1),
+        ),
+    }
+    for prepare, run in variants.values():
+        run(prepare())  # compile
+    wall, _ = interleaved(variants, repeats)
+    print(f"\nlabyrinth() around the pass: paper, uint16, 1 pass, {size}^2, one thread;")
+    print(f"best of {repeats} interleaved rounds, each step on a fresh copy of the image")
+    for name, seconds in wall.items():
+        print(f"  {name:<34}{seconds * 1e3:>8.3f} ms")
+    around = wall["labyrinth()"] - wall["kernel (run_pass on the tones)"]
+    print(f"  {'labyrinth() - kernel':<34}{around * 1e3:>8.3f} ms  ({load()})")
+
+
+def bench_tone_limits(size, repeats):
+    """The default tone limits of four uint16 images: the one-sweep route of
+    ``integer_percentiles`` against the two sweeps alone (then a count of every
+    value where they give up), interleaved; which route each image takes."""
+    from napari_labyrinth.core._tone_loops import count_values
+    from napari_labyrinth.core.percentiles import (
+        integer_percentiles,
+        linear_ranks,
+        sampled_rank_values,
+        tail_rank_values,
+    )
+    from napari_labyrinth.core.tone_scale import DEFAULT_PERCENTILES
+
+    def two_sweeps(values):
+        flat = values.reshape(-1)
+        ranks, _ = linear_ranks(flat.size, DEFAULT_PERCENTILES)
+        if tail_rank_values(flat, ranks) is None:
+            count_values(flat, 0, np.zeros(65536, np.int64))
+
+    rng = np.random.default_rng(0)
+    ramp = np.add.outer(np.arange(size), np.arange(size)) * (16384 // size)
+    images = {
+        "camera": camera(size, np.uint16),
+        "noise": rng.integers(0, 65536, (size, size)).astype(np.uint16),
+        "gradient + noise": (ramp + rng.integers(0, 500, (size, size))).astype(np.uint16),
+        "dark field, 0.3 % bright": np.where(
+            rng.random((size, size)) < 0.003, 60000, 100 + rng.integers(0, 20, (size, size))
+        ).astype(np.uint16),
+    }
+    print(f"\ndefault tone limits of {size}^2 uint16 images, best of {repeats} interleaved")
+    for name, image in images.items():
+        flat = image.reshape(-1)
+        ranks, _ = linear_ranks(flat.size, DEFAULT_PERCENTILES)
+        route = "one sweep" if sampled_rank_values(flat, ranks) is not None else "fallback"
+        variants = {
+            "integer_percentiles": (
+                image.copy,
+                lambda values: integer_percentiles(values, DEFAULT_PERCENTILES),
+            ),
+            "two sweeps": (image.copy, two_sweeps),
+        }
+        for prepare, run in variants.values():
+            run(prepare())
+        wall, _ = interleaved(variants, repeats)
+        print(
+            f"  {name:<26}{route:<11}integer_percentiles {wall['integer_percentiles'] * 1e3:6.3f}"
+            f" ms, two sweeps {wall['two sweeps'] * 1e3:6.3f} ms  ({load()})"
+        )
+
+
 def subprocess_seconds(code, env):
     result = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True
@@ -196,9 +296,15 @@ def main(argv=None):
     parser.add_argument("--size", type=int, default=2048)
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--no-start-up", action="store_true", help="skip oracle and start-up")
+    parser.add_argument(
+        "--overhead", action="store_true", help="also time the steps around the pass"
+    )
     args = parser.parse_args(argv)
     print(f"{os.cpu_count()} cores, {load()}")
     bench_variants(args.size, args.repeats, c_reference.load())
+    if args.overhead:
+        bench_overhead(args.size, 3 * args.repeats)
+        bench_tone_limits(args.size, 2 * args.repeats)
     if not args.no_start_up:
         bench_start_up()
 

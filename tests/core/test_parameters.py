@@ -126,3 +126,27 @@ def test_bounds_hold_in_the_api():
 
 def test_sweepable_is_every_one_word_parameter_and_the_seed():
     assert list(SWEEPABLE) == [n for n in PARAMETERS if n != "tones"] + ["seed"]
+
+
+def test_a_call_is_resolved_once_and_keyed_by_the_types_of_its_values():
+    import numpy as np
+
+    from napari_labyrinth.core import presets
+    from napari_labyrinth.core.presets import resolve_parameters
+
+    first = resolve_parameters("paper", passes=1, mean_threshold=0.2)
+    assert resolve_parameters("paper", passes=1, mean_threshold=0.2) is first
+    # equal in Python, not as parameters: refused as if the first call had not been made
+    with pytest.raises(TypeError, match="passes"):
+        resolve_parameters("paper", passes=True, mean_threshold=0.2)
+    with pytest.raises(TypeError, match="passes"):
+        resolve_parameters("paper", passes=1.0, mean_threshold=0.2)
+    with pytest.raises(ValueError, match="preset"):
+        resolve_parameters("papers", passes=1, mean_threshold=0.2)
+    # values of other types (a list, a numpy scalar) are resolved every time, alike
+    by_list = resolve_parameters("paper", tone_ranges=[10.0, 100.0, 255.0])
+    assert by_list == resolve_parameters("paper", tone_ranges=(10.0, 100.0, 255.0))
+    assert resolve_parameters("paper", passes=np.int64(1), mean_threshold=0.2) == first
+    for passes in range(2 * presets._RESOLVED_CALLS):  # the calls kept stay few
+        resolve_parameters("paper", passes=passes)
+    assert len(presets._RESOLVED) <= presets._RESOLVED_CALLS

@@ -136,3 +136,77 @@ def test_tail_ranks_are_the_sorted_values(dtype, size, seed, noise, q):
     if got is not None:
         assert got == [int(v) for v in np.sort(values)[ranks]]
     assert_numpy_percentiles(values, q)
+
+
+# One sweep within windows of values that a sample places around the ranks.
+
+from napari_labyrinth.core._tone_loops import SPOT_VALUES, sample_starts  # noqa: E402
+from napari_labyrinth.core.percentiles import sampled_rank_values  # noqa: E402
+
+
+def test_a_ramp_of_every_value_gives_each_rank_its_own_value():
+    values = np.arange(65536, dtype=np.uint16)  # the value of rank r is r
+    ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
+    assert ranks == [327, 328, 65207, 65208]
+    assert sampled_rank_values(values, ranks, spots=1024) == ranks
+
+
+def test_a_photograph_takes_the_sampled_route_and_equals_numpy():
+    from skimage import data
+
+    values = np.repeat(data.camera()[:, :501], 4, axis=1).astype(np.uint16) * 256 + 17
+    values = values[:, :-3]  # the last block of values is shorter
+    ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
+    got = sampled_rank_values(values.reshape(-1), ranks)
+    assert got is not None
+    assert got == [int(v) for v in np.sort(values, axis=None)[ranks]]
+    assert_numpy_percentiles(values, DEFAULT_PERCENTILES)
+
+
+def test_a_sample_that_misses_the_tails_falls_back_to_exact_counts():
+    # every sampled value is 1000, every other one spreads from 0 to 1999: the
+    # sample's windows around 1000 hold neither tail's ranks
+    rng = np.random.default_rng(4)
+    values = rng.integers(0, 2000, 64 * 64 * 16).astype(np.uint16)
+    for start in sample_starts(values.size, 64):
+        values[start : start + 4 * SPOT_VALUES : 4] = 1000
+    ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
+    assert sampled_rank_values(values, ranks, spots=64) is None
+    assert_numpy_percentiles(values, DEFAULT_PERCENTILES)
+
+
+def test_noise_is_left_to_the_other_routes():
+    values = np.random.default_rng(2).integers(0, 65536, (256, 256)).astype(np.uint16)
+    ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
+    assert sampled_rank_values(values.reshape(-1), ranks, spots=256) is None  # most reach a tail
+
+
+def test_too_few_values_for_the_sample_are_not_sampled():
+    values = np.arange(64 * 64 - 1, dtype=np.uint16)
+    assert sampled_rank_values(values, [10, 11], spots=64) is None
+    assert sampled_rank_values(values[:1], [0, 0], spots=64) is None
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    st.sampled_from(SMALL_INTEGERS),
+    st.integers(512, 20000),
+    st.integers(0, 2**32 - 1),
+    st.floats(0, 1),
+    st.lists(st.floats(0, 100), min_size=1, max_size=4),
+    st.sampled_from([1, 4, 8]),
+)
+def test_sampled_ranks_are_the_sorted_values(dtype, size, seed, noise, q, spots):
+    # smooth ramps with some noise and runs of equal values: tails of any shape,
+    # samples of a few spots whose windows often miss
+    rng = np.random.default_rng(seed)
+    info = np.iinfo(dtype)
+    ramp = np.cumsum(rng.normal(0, 1, size)) * rng.uniform(1, 300)
+    ramp += noise * rng.normal(0, 2000, size) * (rng.random(size) < noise)
+    values = np.clip(np.rint(ramp + rng.uniform(info.min, info.max)), info.min, info.max)
+    values = values.astype(dtype)
+    ranks, _ = linear_ranks(size, q)
+    got = sampled_rank_values(values, ranks, spots=spots)
+    if got is not None:
+        assert got == [int(v) for v in np.sort(values)[ranks]]
+    assert_numpy_percentiles(values, q)

@@ -2,6 +2,8 @@
 
 - ``count_values``: the histogram of 8- and 16-bit integers, from which
   ``percentiles.integer_percentiles`` takes the default tone limits exactly;
+- ``sampled_tail_values``: the same limits in one sweep, counted in
+  windows of values that a sample places around them;
 - ``block_extremes`` and ``count_tails``: the same limits from the few
   blocks of values that can hold them (``percentiles`` says when), both
   run, with the steps between them, by ``tail_values``;
@@ -253,6 +255,200 @@ def tail_values(flat, offset, shift, bins, ranks, values):
 
 #: Blocks ``count_tails`` asks from memory ahead of the one it counts.
 _AHEAD = 8
+
+
+#: Values of one spot of the sample of ``sampled_tail_values``: every fourth of
+#: ``4 * SPOT_VALUES`` values in a row (one cache line of 16-bit values).
+SPOT_VALUES = 8
+
+#: Golden ratio's fraction: spot k of a sample starts at the fraction k * _GOLDEN (mod 1)
+#: of the values, so that the spots fall on every row and column of a plane alike.
+_GOLDEN = 0.6180339887498949
+
+
+@njit(cache=True, nogil=True)
+def sample_starts(n, spots):
+    """Where each of ``spots`` spots of ``sampled_tail_values`` starts among ``n`` values."""
+    span = n - 4 * SPOT_VALUES + 1
+    starts = np.empty(spots, np.intp)
+    for k in range(spots):
+        starts[k] = min(span - 1, np.intp(((k + 0.5) * _GOLDEN) % 1.0 * span))
+    return starts
+
+
+@njit(cache=True, nogil=True)
+def sampled_tail_values(flat, offset, shift, bins, ranks, values, spots):
+    """The values of ``ranks`` (0 the least) of the 8- or 16-bit integers ``flat`` in one
+    sweep, with bounds from a sample; False when the sample's bounds miss a rank, when
+    the sample shows many blocks reaching a tail, or for fewer than ``64 * spots`` values.
+
+    A sample of ``spots`` spots (``sample_starts``) of ``SPOT_VALUES`` values is
+    binned in the coarse bins ``(v - offset) >> shift`` (``bins`` of them). Around
+    each tail's ranks the sample gives a window of values, ``[floor, stop)`` for the
+    low ranks (2 r < n), ``[start, ceiling)`` for the others, wide enough for the
+    sample's error. One sweep takes the extremes of every ``EXTREMES_BLOCK`` values
+    and, in the blocks that reach a window or beyond, counts every value of the
+    window and those beyond it (``_count_window_below``, ``_count_window_from``). A
+    rank's value is exact when it lies in its window, which the counts show: else
+    False, and nothing is kept.
+    """
+    n, block = flat.shape[0], EXTREMES_BLOCK
+    if n < 64 * spots or spots < 1:
+        return False
+    starts = sample_starts(n, spots)
+    coarse = np.zeros(bins, np.int64)
+    spot_least, spot_greatest = np.empty(spots, np.intp), np.empty(spots, np.intp)
+    for k in range(spots):
+        low = high = np.intp(flat[starts[k]])
+        for i in range(starts[k], starts[k] + 4 * SPOT_VALUES, 4):
+            value = np.intp(flat[i])
+            low, high = min(low, value), max(high, value)
+            coarse[(value - offset) >> shift] += 1
+        spot_least[k], spot_greatest[k] = low, high
+    sampled = spots * SPOT_VALUES
+    below = np.zeros(bins + 1, np.int64)  # below[k]: sampled values in the bins before k
+    for k in range(bins):
+        below[k + 1] = below[k] + coarse[k]
+    lowest_low, highest_low, lowest_high, highest_high = n, -1, n, -1
+    for r in ranks:
+        if 2 * r < n:
+            lowest_low, highest_low = min(lowest_low, r), max(highest_low, r)
+        else:
+            lowest_high, highest_high = min(lowest_high, r), max(highest_high, r)
+    end = offset + (bins << shift)  # past the last bin
+    floor = stop = offset  # no low ranks: an empty window below every value
+    start = ceiling = end
+    if highest_low >= 0:
+        floor = _bin_edge(below, _sample_position(lowest_low, n, sampled, -1), offset, shift)
+        stop = _bin_edge(below, _sample_position(highest_low, n, sampled, 1), offset, shift)
+        stop += 1 << shift
+    if highest_high >= 0:
+        start = _bin_edge(below, _sample_position(lowest_high, n, sampled, -1), offset, shift)
+        ceiling = _bin_edge(below, _sample_position(highest_high, n, sampled, 1), offset, shift)
+        ceiling += 1 << shift
+    if stop - floor > _WIDEST_WINDOW or ceiling - start > _WIDEST_WINDOW:
+        return False
+    reaching = 0  # spots that reach a window or beyond: blocks that would be counted
+    for k in range(spots):
+        reaching += spot_least[k] < stop or spot_greatest[k] >= start
+    if _DENSE * reaching > spots:
+        return False
+    # slot 0: values below the window; the last slot: values from its end on
+    low_counts = np.zeros((4, stop - floor + 2), np.int64)
+    high_counts = np.zeros((4, ceiling - start + 2), np.int64)
+    top = ceiling - start + 1
+    full = n // block
+    for b in range(full):  # blocks of a known size: their extremes are vector reductions
+        first = b * block
+        least, greatest = _extremes(flat[first : first + block], block)
+        if np.intp(least) < stop:
+            _count_window_below(flat, first, first + block, stop, 1 - floor, low_counts)
+        if np.intp(greatest) >= start:
+            _count_window_from(flat, first, first + block, start, top, high_counts)
+    if full * block < n:  # the last, shorter block
+        _count_window_below(flat, full * block, n, stop, 1 - floor, low_counts)
+        _count_window_from(flat, full * block, n, start, top, high_counts)
+    low = low_counts[0] + low_counts[1] + low_counts[2] + low_counts[3]
+    high = high_counts[0] + high_counts[1] + high_counts[2] + high_counts[3]
+    low_cumulative, high_cumulative = np.cumsum(low[1:-1]), np.cumsum(high[1:-1])
+    under = low[0]  # values below floor
+    under_start = n - high[-1] - (high_cumulative[-1] if high_cumulative.shape[0] else 0)
+    found = np.empty(ranks.shape[0], np.int64)
+    for i in range(ranks.shape[0]):
+        r = ranks[i]
+        if 2 * r < n:
+            if r < under or r >= under + (low_cumulative[-1] if low_cumulative.shape[0] else 0):
+                return False
+            found[i] = np.searchsorted(low_cumulative, r - under, side="right") + floor
+        else:
+            if r < under_start or r >= n - high[-1]:
+                return False
+            found[i] = np.searchsorted(high_cumulative, r - under_start, side="right") + start
+    values[:] = found
+    return True
+
+
+#: Widest window of values ``sampled_tail_values`` counts (else the two-sweep route).
+_WIDEST_WINDOW = 1 << 14
+
+#: ``sampled_tail_values`` leaves to the two sweeps a sample of which more than one
+#: spot in ``_DENSE`` reaches a window (a noisy image, whose blocks would be counted
+#: whole: a block holds 64 values, a spot's sample 8).
+_DENSE = 16
+
+
+@njit(inline="always")
+def _sample_position(rank, n, sampled, side):
+    """The position in the sorted sample of the value of ``rank`` among ``n``, moved
+    towards ``side`` (-1 down, 1 up) by a margin of the sample's error (its values
+    come in spots of ``SPOT_VALUES`` neighbours, which err together)."""
+    expected = (rank + 0.5) * sampled / n
+    spread = expected * (sampled - expected) / sampled  # binomial variance
+    margin = 3.0 * math.sqrt(SPOT_VALUES * (spread + 1.0)) + SPOT_VALUES
+    return expected + side * margin
+
+
+@njit(inline="always")
+def _bin_edge(below, position, offset, shift):
+    """The least value of the coarse bin that holds ``position`` of the sorted sample
+    (``below[k]`` sampled values lie in the bins before k); beyond the sample, the
+    bin of its least or greatest value (a window that ends there and misses a rank
+    beyond it shows it: the two sweeps take over)."""
+    bins = below.shape[0] - 1
+    position = min(max(position, 0.0), below[bins] - 1.0)
+    k = np.searchsorted(below, position, side="right") - 1  # below[k] <= position
+    return offset + (min(max(k, 0), bins - 1) << shift)
+
+
+@njit(inline="always")
+def _count_window_below(flat, first, last, stop, shift, counts):
+    """``counts[i % 4, max(v + shift, 0)] += 1`` for the values ``v = flat[i] < stop``,
+    ``first <= i < last`` (``first`` a multiple of 4): with ``shift = 1 - floor``,
+    the values of the window ``[floor, stop)`` each in its slot, those below in
+    slot 0. Four values a step, into four rows: their increments do not wait on
+    each other."""
+    first_row, second_row, third_row, fourth_row = counts[0], counts[1], counts[2], counts[3]
+    quads = first + (last - first) // 4 * 4
+    for i in range(first, quads, 4):
+        a, b = np.intp(flat[i]), np.intp(flat[i + 1])
+        c, d = np.intp(flat[i + 2]), np.intp(flat[i + 3])
+        if a < stop:
+            first_row[max(a + shift, 0)] += 1
+        if b < stop:
+            second_row[max(b + shift, 0)] += 1
+        if c < stop:
+            third_row[max(c + shift, 0)] += 1
+        if d < stop:
+            fourth_row[max(d + shift, 0)] += 1
+    for i in range(quads, last):
+        value = np.intp(flat[i])
+        if value < stop:
+            first_row[max(value + shift, 0)] += 1
+
+
+@njit(inline="always")
+def _count_window_from(flat, first, last, start, top, counts):
+    """``counts[i % 4, min(v - start + 1, top)] += 1`` for the values ``v = flat[i] >=
+    start``: those of the window ``[start, start + top - 1)`` each in its slot from 1,
+    those past it in slot ``top``."""
+    first_row, second_row, third_row, fourth_row = counts[0], counts[1], counts[2], counts[3]
+    quads = first + (last - first) // 4 * 4
+    shift = 1 - start
+    for i in range(first, quads, 4):
+        a, b = np.intp(flat[i]), np.intp(flat[i + 1])
+        c, d = np.intp(flat[i + 2]), np.intp(flat[i + 3])
+        if a >= start:
+            first_row[min(a + shift, top)] += 1
+        if b >= start:
+            second_row[min(b + shift, top)] += 1
+        if c >= start:
+            third_row[min(c + shift, top)] += 1
+        if d >= start:
+            fourth_row[min(d + shift, top)] += 1
+    for i in range(quads, last):
+        value = np.intp(flat[i])
+        if value >= start:
+            first_row[min(value + shift, top)] += 1
 
 
 @njit(inline="always")

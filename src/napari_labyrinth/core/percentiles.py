@@ -5,13 +5,17 @@ by partitioning a copy of the whole image; an image of 8- or 16-bit integers
 holds at most 65536 distinct values, so one count of each value gives the
 order statistics, and the interpolation below gives numpy's exact floats.
 The default limits need only the values of low and high ranks: most often
-a first, vectorised pass over blocks of values (their least and greatest)
-shows that a few blocks hold them, and only those are counted.
+a sample places a window of values around them and one sweep counts those
+windows in the few blocks of values that reach them (exact: the counts show
+whether each rank lies in its window); else a first, vectorised pass over
+blocks of values (their least and greatest) shows which few blocks hold
+them, and only those are counted.
 ``lazy.py`` takes the counting route over the blocks of a dask array.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -19,6 +23,17 @@ import numpy as np
 
 def linear_ranks(count: int, q: Sequence[float]) -> tuple[list[int], np.ndarray]:
     """Ranks (previous, next for each percentile) and weights, as numpy's 'linear' method."""
+    q = tuple(q)
+    if not all(type(v) in (float, int) for v in q):  # numpy scalars keep their precision
+        return _linear_ranks.__wrapped__(count, q)
+    ranks, gammas = _linear_ranks(count, q)
+    return list(ranks), gammas.copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _linear_ranks(count: int, q: tuple[float, ...]) -> tuple[list[int], np.ndarray]:
+    """:func:`linear_ranks` of one image size and percentiles, computed once (a dozen
+    numpy steps on a few values: ~50 µs after an image's copy)."""
     quantiles = np.true_divide(tuple(q), 100)
     virtual = (count - 1) * quantiles
     previous = np.floor(virtual)
@@ -32,6 +47,7 @@ def linear_ranks(count: int, q: Sequence[float]) -> tuple[list[int], np.ndarray]
     fixed_previous = np.where(above, -1, previous)
     gammas = np.asanyarray(virtual - fixed_previous, dtype=virtual.dtype)
     ranks = [int(r) for pair in zip(previous, following) for r in pair]
+    gammas.flags.writeable = False
     return ranks, gammas
 
 
@@ -63,10 +79,12 @@ def integer_percentiles(values: np.ndarray, q: Sequence[float]) -> list[float]:
     """``[float(v) for v in np.percentile(values, q)]`` of 8- or 16-bit integers, by counting.
 
     The values of the ranks np.percentile interpolates between are counted:
-    in the tails that hold them (:func:`tail_rank_values`) when these are
-    few, otherwise in one count of every value (a numba loop and a few
-    operations on the 256 or 65536 counts). Either way, no copy of the
-    image is partitioned as numpy does.
+    in one sweep, within windows of values a sample places around them
+    (:func:`sampled_rank_values`), or where the sample's windows miss them, in
+    the tails that hold them (:func:`tail_rank_values`) when these are few,
+    otherwise in one count of every value (a numba loop and a few operations
+    on the 256 or 65536 counts). Either way, no copy of the image is
+    partitioned as numpy does.
     """
     from ._tone_loops import count_values  # numba is imported on first use only
 
@@ -78,13 +96,38 @@ def integer_percentiles(values: np.ndarray, q: Sequence[float]) -> list[float]:
     info = np.iinfo(dtype)
     flat = values.reshape(-1)
     ranks, gammas = linear_ranks(flat.size, q)
-    ranked = tail_rank_values(flat, ranks)
+    ranked = sampled_rank_values(flat, ranks)
+    if ranked is None:
+        ranked = tail_rank_values(flat, ranks)
     if ranked is None:
         counts = np.zeros(int(info.max) - int(info.min) + 1, dtype=np.int64)
         count_values(flat, int(info.min), counts)
         ranked = np.searchsorted(np.cumsum(counts), ranks, side="right") + int(info.min)
-    ranked = np.asarray(ranked).astype(dtype)
-    return [float(v) for v in lerp(ranked[0::2], ranked[1::2], gammas)]
+    return ranked_percentiles([int(v) for v in ranked], gammas, dtype)
+
+
+def ranked_percentiles(ranked: Sequence[int], gammas: np.ndarray, dtype) -> list[float]:
+    """:func:`lerp` of the values ``ranked`` (previous, next for each percentile) of
+    integers of ``dtype``, as a list of floats.
+
+    Where each difference ``next - previous`` holds in ``dtype`` (always for
+    unsigned integers) the same float64 operations in Python's floats (no numpy
+    step on a few values, ~50 µs after an image's copy); else numpy's, whose
+    differences wrap around in ``dtype``.
+    """
+    info = np.iinfo(dtype)
+    pairs = list(zip(ranked[0::2], ranked[1::2]))
+    if not all(info.min <= following - previous <= info.max for previous, following in pairs):
+        values = np.asarray(ranked).astype(dtype)
+        return [float(v) for v in lerp(values[0::2], values[1::2], gammas)]
+    out = []
+    for (previous, following), weight in zip(pairs, gammas.tolist()):
+        difference = following - previous
+        if weight >= 0.5:
+            out.append(following - difference * (1 - weight))
+        else:
+            out.append(previous + difference * weight)
+    return [float(v) for v in out]
 
 
 #: Coarse bins of values in which ``tail_rank_values`` places the tails' bounds.
@@ -113,5 +156,38 @@ def tail_rank_values(flat: np.ndarray, ranks: Sequence[int]) -> list[int] | None
     values = np.empty(len(ranks), np.int64)
     bins = ((int(info.max) - offset) >> shift) + 1
     if not tail_values(flat, offset, shift, bins, np.asarray(ranks, np.int64), values):
+        return None
+    return [int(v) for v in values]
+
+
+#: Spots of ``SPOT_VALUES`` values that ``sampled_rank_values`` samples: enough that
+#: its windows are narrow (few blocks counted), few enough that the sample costs
+#: little beside the sweep; arrays of fewer than 64 values a spot are not sampled.
+SAMPLE_SPOTS = 1024
+
+
+def sampled_rank_values(
+    flat: np.ndarray, ranks: Sequence[int], spots: int = SAMPLE_SPOTS
+) -> list[int] | None:
+    """The values of ``ranks`` among the 8- or 16-bit integers ``flat`` in one sweep
+    (``_tone_loops.sampled_tail_values``), or None where its sample's windows miss a
+    rank, the values are noisy, or fewer than ``64 * spots``.
+
+    A sample of the values places a window of values around the low ranks and
+    one around the high ranks; one sweep counts every value in or below the low
+    window and in or above the high one, in the blocks of values that reach
+    them. A rank's value found in its window is exact whatever the sample was;
+    the counts show whether it lies there.
+    """
+    from ._tone_loops import sampled_tail_values  # numba is imported on first use only
+
+    info = np.iinfo(flat.dtype)
+    offset = int(info.min)
+    shift = max(0, flat.dtype.itemsize * 8 - _COARSE_BITS)
+    bins = ((int(info.max) - offset) >> shift) + 1
+    values = np.empty(len(ranks), np.int64)
+    if not sampled_tail_values(
+        flat, offset, shift, bins, np.asarray(ranks, np.int64), values, spots
+    ):
         return None
     return [int(v) for v in values]

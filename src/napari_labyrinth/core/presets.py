@@ -96,12 +96,65 @@ def resolve_parameters(preset: str = DEFAULT_PRESET, **overrides: Any) -> Labyri
     """Parameters of ``preset`` with every non-None override applied, validated.
 
     Setting ``tone_ranges`` without ``tones`` resets the tones to T = L.
+    A call whose arguments are plain values (see :func:`_call_key`) is
+    resolved once: the same call again returns the same (immutable) set.
 
     Raises
     ------
     TypeError, ValueError
         Naming the parameter, for an unknown name or a bad value.
     """
+    key = _call_key(preset, overrides)
+    if key is not None:
+        resolved = _RESOLVED.get(key)
+        if resolved is None:
+            resolved = _resolve(preset, overrides)
+            if len(_RESOLVED) >= _RESOLVED_CALLS:
+                _RESOLVED.clear()
+            _RESOLVED[key] = resolved
+        return resolved
+    return _resolve(preset, overrides)
+
+
+#: Distinct calls whose parameters ``resolve_parameters`` keeps (then it starts afresh).
+_RESOLVED_CALLS = 256
+
+#: The parameters of the calls resolved so far, by :func:`_call_key`.
+_RESOLVED: dict[tuple, LabyrinthParameters] = {}
+
+#: Types of the values a call may be remembered by: compared by value, immutable.
+_PLAIN_TYPES = (str, int, float, bool, type(None))
+
+
+def _call_key(preset: Any, overrides: dict[str, Any]) -> tuple | None:
+    """A key that equals another only for a call that resolves to the same parameters;
+    None if a value is not of ``_PLAIN_TYPES`` (or a tuple of them).
+
+    Each value is keyed with its type: ``1``, ``1.0`` and ``True`` are equal in
+    Python but not as parameters (``passes=True`` is refused).
+    """
+    key = [_plain(preset)]
+    for name, value in overrides.items():
+        key.append((name, _plain(value)))
+        if key[-1][1] is None:
+            return None
+    return None if key[0] is None else tuple(key)
+
+
+def _plain(value: Any) -> tuple | None:
+    """``(type, value)`` of a value of ``_PLAIN_TYPES`` or a tuple of such values (its
+    items keyed alike), else None."""
+    kind = type(value)
+    if kind in _PLAIN_TYPES:
+        return kind, value
+    if kind is tuple:
+        items = tuple(_plain(item) for item in value)
+        return None if None in items else (kind, items)
+    return None
+
+
+def _resolve(preset: Any, overrides: dict[str, Any]) -> LabyrinthParameters:
+    """:func:`resolve_parameters` without remembering the call."""
     values = preset_values(preset)
     given = {name: value for name, value in overrides.items() if value is not None}
     unknown = set(given) - set(PARAMETER_NAMES)
