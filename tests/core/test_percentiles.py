@@ -95,14 +95,23 @@ def test_counting_in_four_tables_counts_every_value_once(size):
 from napari_labyrinth.core.percentiles import linear_ranks, tail_rank_values  # noqa: E402
 
 
-def test_a_photograph_takes_the_tail_route_and_equals_numpy():
+def _photograph() -> np.ndarray:
+    """The camera at 4 x the width (as a larger photograph): few blocks of 64 values reach
+    a tail; the last block of values is shorter."""
     from skimage import data
 
-    # at 4 x the width (as a larger photograph): few blocks of 64 values reach a tail
     values = np.repeat(data.camera()[:, :501], 4, axis=1).astype(np.uint16) * 256 + 17
-    values = values[:, :-3]  # the last block of values is shorter
+    return values[:, :-3]
+
+
+def test_a_photograph_takes_the_tail_route_and_equals_numpy():
+    _takes_the_route_and_equals_numpy(tail_rank_values)
+
+
+def _takes_the_route_and_equals_numpy(route):
+    values = _photograph()
     ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
-    got = tail_rank_values(values.reshape(-1), ranks)
+    got = route(values.reshape(-1), ranks)
     assert got is not None
     assert got == [int(v) for v in np.sort(values, axis=None)[ranks]]
     assert_numpy_percentiles(values, DEFAULT_PERCENTILES)
@@ -152,15 +161,7 @@ def test_a_ramp_of_every_value_gives_each_rank_its_own_value():
 
 
 def test_a_photograph_takes_the_sampled_route_and_equals_numpy():
-    from skimage import data
-
-    values = np.repeat(data.camera()[:, :501], 4, axis=1).astype(np.uint16) * 256 + 17
-    values = values[:, :-3]  # the last block of values is shorter
-    ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
-    got = sampled_rank_values(values.reshape(-1), ranks)
-    assert got is not None
-    assert got == [int(v) for v in np.sort(values, axis=None)[ranks]]
-    assert_numpy_percentiles(values, DEFAULT_PERCENTILES)
+    _takes_the_route_and_equals_numpy(sampled_rank_values)
 
 
 def test_a_sample_that_misses_the_tails_falls_back_to_exact_counts():
