@@ -355,14 +355,16 @@ def _collections_not_held():
         module.hold_full_collections = hold
 
 
-def bench_single(viewer, widget, size: int, repeats: int) -> list[dict]:
-    """Runs of one ``size``² uint16 plane, default preset, after a warm-up run; each
-    updates the last result in place ("replace last")."""
+def bench_single(viewer, widget, size: int, repeats: int) -> tuple[dict, list[dict]]:
+    """The first run of one ``size``² uint16 plane in this viewer, default preset (it adds
+    the result layer), and ``repeats`` runs after it, each updating the last result in
+    place ("replace last")."""
     _clear(viewer)
     viewer.add_image(image(size), name=f"{size}")
     widget.mode.value = "single"
     widget.replace.value = True
-    return [_timed_run(widget) for _ in range(repeats + 1)][1:]
+    first, *runs = [_timed_run(widget) for _ in range(repeats + 1)]
+    return first, runs
 
 
 #: The ways of showing a new result layer that ``bench_new_layer`` compares.
@@ -581,9 +583,11 @@ def _planes_part(viewer, widget, args) -> None:
 def _single_part(viewer, widget, args) -> None:
     print("\nRun -> layer, one 2048² uint16 plane, default preset, warm; each run updates")
     print("the last result in place (replace last on)")
-    runs = bench_single(viewer, widget, 2048, args.repeats)
+    first, runs = bench_single(viewer, widget, 2048, args.repeats)
     _print_runs(runs)
     _print_summary("in place", runs)
+    print("\nthe first run in this viewer (before those), which added the result layer:")
+    _print_runs([first])
     print("\nRun -> layer, the same, each run adding a new layer (replace last off, or a first")
     print("run); ways of showing it, interleaved run by run:")
     for variant, what in NEW_LAYER_VARIANTS.items():

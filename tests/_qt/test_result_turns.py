@@ -207,3 +207,20 @@ def test_a_result_that_replaces_a_layer_of_other_axes_takes_its_place(
     assert [step for step, *_ in seen] == [*NEW_LAYER_STEPS, "previous removed"]
     assert stack not in viewer.layers
     assert [layer.name for layer in viewer.layers] == ["cell · labyrinth", "cell", "other"]
+
+
+def test_a_step_that_fails_is_reported_and_leaves_no_layer(
+    qtbot, viewer, widget, shown_errors, monkeypatch
+):
+    import napari_labyrinth._qt.worker as worker_module
+
+    def fail(*_args):
+        raise ValueError("no slider here")
+
+    monkeypatch.setattr(worker_module, "_go_to_last_plane", fail)  # in the "selected" step
+    viewer.add_image(noise((32, 32)), name="cell")
+    widget.replace.value = False
+    run(qtbot, widget)
+    assert [layer.name for layer in viewer.layers] == ["cell"]
+    assert len(shown_errors) == 1 and "no slider here" in shown_errors[0]
+    assert "Failed" in widget.status.value and widget.run_button.enabled

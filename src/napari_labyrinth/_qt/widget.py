@@ -469,8 +469,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             return
         if not self._wanted():
             self._showing = None
-            with contextlib.suppress(RuntimeError):  # a closed viewer's Qt side may be gone
-                steps.close()  # takes back a layer it has inserted
+            _abandon(steps)
             self._outcome_received = False  # said as cancelled
             self._settle()
             return
@@ -482,7 +481,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             return
         except Exception as exc:  # noqa: BLE001 - shown to the user, not as a traceback
             self._showing = None
-            steps.close()
+            _abandon(steps)
             show_error(f"Labyrinthine tiling: could not add the result layer: {exc}")
             self.status.value = f"Failed: {exc}"
             self._settle()
@@ -585,6 +584,13 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
 
 def _nothing() -> None:
     pass
+
+
+def _abandon(steps) -> None:
+    """Close the steps of showing a result, which takes back a layer they inserted; a
+    viewer that is closing may have lost its Qt side: nothing more to take back then."""
+    with contextlib.suppress(RuntimeError):
+        steps.close()
 
 
 def _fit_label_widths(box: Container) -> None:

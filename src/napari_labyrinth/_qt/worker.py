@@ -98,9 +98,9 @@ def show_result(
     no new visual and no new controls, and removes no layer.
 
     Closing the generator before its end (a cancel, a closed dock, a removed
-    input) takes a layer it inserted back out of the viewer, and leaves
-    ``previous`` where it is (an update in place, a single step, is done once
-    it has yielded).
+    input), or a step that fails, takes a layer it inserted back out of the
+    viewer and leaves ``previous`` where it is (an update in place, a single
+    step, is done once it has yielded).
     """
     data, kwargs = result_layer(plan, outcome)
     if _updatable(viewer, previous, data, kwargs):
@@ -129,7 +129,7 @@ def show_result(
             return None
         layer.visible = True
         yield "shown"
-    except GeneratorExit:
+    except BaseException:  # closed early (GeneratorExit), or a step failed
         if layer in viewer.layers:
             viewer.layers.remove(layer)
         raise
