@@ -6,9 +6,12 @@ nothing; the machine's load is printed before and after. Parts:
 
 - ``preview``: from a change of V to the updated preview layer, 1024² and 2048²;
 - ``single``: Run -> result layer of one 2048² uint16 plane, default preset, warm, split
-  into the worker's rendering and napari's time adding the layer, when the run updates
-  the last result in place ("replace last", the default) and when it adds a layer;
-  and, for comparison, napari alone adding a layer of the same size (no plugin);
+  into the worker's rendering and the main thread's steps of showing the result (each
+  in a turn of the event loop of its own), when the run updates the last result in
+  place ("replace last", the default) and when it adds a new layer; for a new layer,
+  ways of showing it interleaved run by run (``NEW_LAYER_VARIANTS``: as shipped, as
+  before in one turn, the selection deferred); and, for comparison, napari alone
+  adding a layer of the same size (no plugin);
 - ``stack``: 4 passes with metrics, 2048²; the time to cancel;
 - ``planes``: a 20-plane 2048² movie, 4 passes (the first run adds the layer),
   interleaved with and without the widget's hold on Python's full garbage collections.
@@ -227,18 +230,24 @@ def _timed_run(widget) -> dict[str, float]:
     - ``total``: from the start of the worker to the end of the run (result shown);
     - ``rendering``: from the start to the run's last step (the worker thread's part);
     - ``gap_rendering``: the longest event-loop gap until then;
-    - ``adding``: the main thread's time adding (or updating) the result layer;
+    - ``adding``: the main thread's time in the steps of showing the result (adding or
+      updating the layer, each step in a turn of the event loop of its own), summed;
+    - ``longest_step``: the longest of those steps;
+    - ``steps``: each step's name and milliseconds, e.g. ``built 3, inserted 52, ...``;
     - ``gap_showing``: the longest gap from the last step to 0.5 s after the end: the
       layer added or updated, then drawn (the texture upload, in software under Xvfb);
     - ``drawing``: the longest single draw of the canvas by vispy in that time;
     - ``collections``: Python's full garbage collections over the whole run and the
       0.5 s after (:class:`CollectionMeter`'s summary).
     """
+    from napari_labyrinth._qt import widget as module
+
     worker = widget.run(start=False)
     total_steps = widget.progress_bar.maximum()
     gap = GapMeter(explain=True)
     marks: dict[str, float] = {}
-    add_result = widget._add_result
+    steps: list[tuple[str, float]] = []
+    show_result = module.show_result
 
     draw = DrawMeter()
     collections = CollectionMeter()
@@ -250,15 +259,24 @@ def _timed_run(widget) -> dict[str, float]:
             gap.longest = 0.0
             draw.__enter__()
 
-    def timed_add(*arguments):
-        started = time.perf_counter()
+    def timed_show(*arguments):
+        shown = show_result(*arguments)
         try:
-            return add_result(*arguments)
+            while True:
+                started = time.perf_counter()
+                try:
+                    name = next(shown)
+                except StopIteration as done:
+                    return done.value
+                finally:
+                    steps.append(("", time.perf_counter() - started))
+                steps[-1] = (name, steps[-1][1])
+                yield name
         finally:
-            marks["adding"] = time.perf_counter() - started
+            shown.close()
 
     worker.yielded.connect(on_step)
-    widget._add_result = timed_add
+    module.show_result = timed_show
     started = time.perf_counter()
     try:
         with gap, collections:
@@ -267,14 +285,16 @@ def _timed_run(widget) -> dict[str, float]:
             finished = time.perf_counter()
             _events(0.5)
     finally:
-        del widget._add_result  # back to the method
+        module.show_result = show_result
         draw.__exit__()
     rendered = marks.get("rendered", finished)
     return {
         "total": finished - started,
         "rendering": rendered - started,
         "gap_rendering": marks.get("gap_rendering", gap.longest),
-        "adding": marks.get("adding", 0.0),
+        "adding": sum(seconds for _, seconds in steps),
+        "longest_step": max((seconds for _, seconds in steps), default=0.0),
+        "steps": ", ".join(f"{name or 'end'} {1000 * seconds:.0f}" for name, seconds in steps),
         "gap_showing": gap.longest,
         "drawing": draw.longest,
         "collections": collections.summary(),
@@ -335,19 +355,85 @@ def _collections_not_held():
         module.hold_full_collections = hold
 
 
-def bench_single(viewer, widget, size: int, repeats: int, replace: bool) -> list[dict]:
-    """Runs of one ``size``² uint16 plane, default preset, after a warm-up run."""
+def bench_single(viewer, widget, size: int, repeats: int) -> tuple[dict, list[dict]]:
+    """The first run of one ``size``² uint16 plane in this viewer, default preset (it adds
+    the result layer), and ``repeats`` runs after it, each updating the last result in
+    place ("replace last")."""
     _clear(viewer)
     viewer.add_image(image(size), name=f"{size}")
     widget.mode.value = "single"
-    widget.replace.value = replace
-    runs = [_timed_run(widget) for _ in range(repeats + 1)][1:]
-    if not replace:  # one new layer a run: remove them, one at a time
-        for layer in [layer for layer in viewer.layers if layer.name != f"{size}"]:
-            viewer.layers.remove(layer)
-            _events(0.05)
+    widget.replace.value = True
+    first, *runs = [_timed_run(widget) for _ in range(repeats + 1)]
+    return first, runs
+
+
+#: The ways of showing a new result layer that ``bench_new_layer`` compares.
+NEW_LAYER_VARIANTS = {
+    "in steps (as shipped)": "each step of show_result in a turn of its own",
+    "added in one turn": "the steps up to the selection in one turn, as before: "
+    "viewer.add_image(hidden) then, a turn later, visible",
+    "selection deferred": "as shipped, but inserted unselected (napari's private switch "
+    "LayerList._activate_on_insert) and selected a turn later",
+}
+
+
+def bench_new_layer(viewer, widget, size: int, repeats: int) -> dict[str, list[dict]]:
+    """Runs of one ``size``² uint16 plane that each add a new layer ("replace last" off),
+    the ways of :data:`NEW_LAYER_VARIANTS` interleaved, after a warm-up round; each new
+    layer is removed after its run (outside the run's watch)."""
+    _clear(viewer)
+    viewer.add_image(image(size), name=f"{size}")
+    widget.mode.value = "single"
+    widget.replace.value = False
+    runs: dict[str, list[dict]] = {variant: [] for variant in NEW_LAYER_VARIANTS}
+    for k in range(repeats + 1):
+        for variant in NEW_LAYER_VARIANTS:
+            with _new_layer_variant(variant):
+                run = _timed_run(widget)
+            if k:  # the first round is a warm-up
+                runs[variant].append(run)
+            for layer in [layer for layer in viewer.layers if layer.name != f"{size}"]:
+                viewer.layers.remove(layer)  # napari collects garbage: outside the watch
+                _events(0.1)
     widget.replace.value = True
     return runs
+
+
+@contextlib.contextmanager
+def _new_layer_variant(variant: str):
+    """The widget with its new layers shown the way ``variant`` says."""
+    from napari_labyrinth._qt import widget as widget_module
+    from napari_labyrinth._qt import worker as worker_module
+
+    show_result, insert = widget_module.show_result, worker_module.insert_layer
+
+    def in_one_turn(*arguments):
+        steps = show_result(*arguments)
+        try:
+            name = next(steps)
+            while name in ("built", "inserted"):  # joined to the next step, as before
+                name = next(steps)
+            yield name
+            return (yield from steps)
+        finally:
+            steps.close()
+
+    def unselected(viewer, position, layer):
+        layers = getattr(viewer, "__wrapped__", viewer).layers  # the widget has a proxy
+        layers._activate_on_insert = False
+        try:
+            layers.insert(position, layer)
+        finally:
+            layers._activate_on_insert = True
+
+    if variant == "added in one turn":
+        widget_module.show_result = in_one_turn
+    elif variant == "selection deferred":
+        worker_module.insert_layer = unselected
+    try:
+        yield
+    finally:
+        widget_module.show_result, worker_module.insert_layer = show_result, insert
 
 
 def bench_bare_add(viewer, size: int, repeats: int) -> list[dict]:
@@ -384,25 +470,43 @@ def bench_bare_add(viewer, size: int, repeats: int) -> list[dict]:
 
 
 def _print_runs(runs: list[dict]) -> None:
-    """One line per run (milliseconds but the total)."""
+    """One line per run (milliseconds but the total), its steps, its stalls."""
     print(
-        "  run   total   rendering   longest gap   adding the layer   longest gap while"
+        "  run   total   rendering   longest gap     showing the result    longest gap while"
         "   of which: longest      full garbage\n"
-        "                 (worker)   while rendering    (main thread)   adding + drawing"
-        "   vispy draw (paintGL)   collections"
+        "                 (worker)   while rendering   (main thread: all"
+        "    adding + drawing   vispy draw (paintGL)   collections\n"
+        "                                             steps / longest step)"
     )
     for k, r in enumerate(runs, 1):
         print(
             f"  {k:>3} {r['total']:6.2f} s {1000 * r['rendering']:7.0f} ms"
-            f" {1000 * r['gap_rendering']:13.0f} ms {1000 * r['adding']:15.0f} ms"
-            f" {1000 * r['gap_showing']:17.0f} ms {1000 * r['drawing']:17.0f} ms"
+            f" {1000 * r['gap_rendering']:13.0f} ms {1000 * r['adding']:11.0f} /"
+            f" {1000 * r['longest_step']:3.0f} ms"
+            f" {1000 * r['gap_showing']:14.0f} ms {1000 * r['drawing']:17.0f} ms"
             f"   {r['collections']}"
         )
+        print(f"        steps (ms, one turn of the event loop each): {r['steps']}")
         for at, length, seen in r.get("stalls", []):
             where = "; ".join(seen) if seen else "nothing seen (waiting for the GIL or the CPU)"
             print(
                 f"        stall of {1000 * length:.0f} ms at {at:+.2f} s: main thread in {where}"
             )
+
+
+def _print_summary(label: str, runs: list[dict]) -> None:
+    """The best and the median of a variant's longest gaps while showing, and its best run."""
+    gaps = sorted(1000 * r["gap_showing"] for r in runs)
+    best = min(runs, key=lambda r: r["total"])
+    over = sum(gap > 1000 * GapMeter.STALL for gap in gaps)
+    print(
+        f"  {label}: longest gap while showing: best {gaps[0]:.0f} ms, median"
+        f" {gaps[len(gaps) // 2]:.0f} ms, worst {gaps[-1]:.0f} ms; {over} of {len(gaps)}"
+        f" runs over {1000 * GapMeter.STALL:.0f} ms. Best run {1000 * best['total']:.0f} ms ="
+        f" rendering {1000 * best['rendering']:.0f} + showing (main thread)"
+        f" {1000 * best['adding']:.0f} + the rest"
+        f" {1000 * (best['total'] - best['rendering'] - best['adding']):.0f}"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -477,17 +581,24 @@ def _planes_part(viewer, widget, args) -> None:
 
 
 def _single_part(viewer, widget, args) -> None:
-    for replace in (True, False):
-        what = "updates the last result in place" if replace else "adds a new layer"
-        print(f"\nRun -> layer, one 2048² uint16 plane, default preset, warm; each run {what}")
-        runs = bench_single(viewer, widget, 2048, args.repeats, replace)
+    print("\nRun -> layer, one 2048² uint16 plane, default preset, warm; each run updates")
+    print("the last result in place (replace last on)")
+    first, runs = bench_single(viewer, widget, 2048, args.repeats)
+    _print_runs(runs)
+    _print_summary("in place", runs)
+    print("\nthe first run in this viewer (before those), which added the result layer:")
+    _print_runs([first])
+    print("\nRun -> layer, the same, each run adding a new layer (replace last off, or a first")
+    print("run); ways of showing it, interleaved run by run:")
+    for variant, what in NEW_LAYER_VARIANTS.items():
+        print(f"  - {variant}: {what}")
+    variants = bench_new_layer(viewer, widget, 2048, args.repeats)
+    for variant, runs in variants.items():
+        print(f"\n{variant}:")
         _print_runs(runs)
-        best = min(runs, key=lambda r: r["total"])
-        print(
-            f"  best: {1000 * best['total']:.0f} ms = rendering {1000 * best['rendering']:.0f} ms"
-            f" + napari (adding the layer) {1000 * best['adding']:.0f} ms"
-            f" + the rest {1000 * (best['total'] - best['rendering'] - best['adding']):.0f} ms"
-        )
+    print()
+    for variant, runs in variants.items():
+        _print_summary(variant, runs)
     print(
         "\nnapari alone, no plugin: viewer.add_image of a 2048² uint16 plane from an"
         " event-loop callback\n  run   add_image (main thread)   longest gap while"
@@ -498,6 +609,7 @@ def _single_part(viewer, widget, args) -> None:
             f"  {k:>3} {1000 * r['adding']:19.0f} ms {1000 * r['gap_showing']:30.0f} ms"
             f" {1000 * r['drawing']:33.0f} ms"
         )
+    print(f"  (load average now: {os.getloadavg()[0]:.2f})")
 
 
 if __name__ == "__main__":

@@ -79,26 +79,6 @@ def test_leaving_after_the_rendering_but_before_the_result_is_shown_adds_nothing
     )
 
 
-def test_a_new_result_layer_is_added_hidden_and_shown_in_a_later_turn(qtbot, viewer, widget):
-    """Adding a layer and drawing it are each tens of ms of napari's work on the main
-    thread: the widget puts them in turns of the event loop of their own."""
-    viewer.add_image(noise((64, 64)), name="cell")
-    widget.replace.value = False
-    seen = []
-    add_result = widget._add_result
-
-    def watched(*arguments):
-        layer = add_result(*arguments)
-        seen.append(layer.visible)
-        return layer
-
-    widget._add_result = watched
-    run(qtbot, widget)
-    assert seen == [False]  # hidden when the turn that added it ends
-    assert widget.last_result.visible and widget.last_result in viewer.layers
-    assert "Added" in widget.status.value and widget.run_button.enabled
-
-
 def test_the_widget_shows_the_progress_of_a_run(qtbot, viewer, widget):
     _, worker = _start_long_run(viewer, widget)
     seen = []

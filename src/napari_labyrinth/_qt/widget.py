@@ -11,6 +11,7 @@ call so that it can be reproduced exactly.
 
 from __future__ import annotations
 
+import contextlib
 import time
 import weakref
 from typing import Any
@@ -45,7 +46,7 @@ from .metrics_plot import MetricsPlot
 from .metrics_table import MetricsTable
 from .preview import Preview
 from .sweep_label import SweepLabel
-from .worker import add_result_layer, render_worker, stop
+from .worker import render_worker, show_result, stop
 
 __all__ = ["LabyrinthWidget"]
 
@@ -122,6 +123,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self._plan: RenderPlan | None = None
         self._outcome_received = False
         self._outcome: Outcome | Failure | None = None
+        self._showing = None  # the steps of showing a result (show_result), while they last
         self._compare = CompareView(napari_viewer)
 
         self.inputs = InputSection(napari_viewer)
@@ -430,58 +432,76 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self._outcome = outcome  # shown once the worker has finished (_end_run)
 
     def _end_run(self) -> None:
-        """Show the run's result (a turn of the event loop of its own), and settle.
+        """Start showing the run's result, one step per turn of the event loop, or settle.
 
         Adding a layer and drawing it are each tens of milliseconds of napari's and
-        Qt's work on the main thread (the layer's visual and controls; its texture, and
-        the repaint of the window, in software under Xvfb or a remote desktop): a new
-        layer is added hidden and shown in the next turn, so that the two do not stall
-        the event loop together. The run is still on (``worker`` set) until the widget
-        settles: a cancel, a closed dock or a removed input in between adds nothing.
+        Qt's work on the main thread (the layer's visual and controls, its selection;
+        its texture and the repaint of the window, in software under Xvfb or a remote
+        desktop): :func:`.worker.show_result` splits them into steps, and each step
+        gets a turn of its own, so that none stalls the event loop for long. The
+        run is still on (``worker`` set) until the widget settles: a cancel, a closed
+        dock or a removed input in between adds nothing (a layer already inserted is
+        taken out again).
         """
         plan, outcome, self._outcome = self._plan, self._outcome, None
-        layer = None
-        wanted = plan is not None and not plan.cancel.is_set() and not self._closed
-        if outcome is not None and wanted:
-            layer = self._show_outcome(plan, outcome)
-        if layer is not None and not layer.visible:  # a new layer, added hidden
-            QTimer.singleShot(NEXT_TURN_MS, lambda: self._reveal(layer))
-        else:
+        if outcome is None or not self._wanted():
             self._settle()
-
-    def _reveal(self, layer: Image) -> None:
-        if not self._closed and layer in self.viewer.layers:
-            layer.visible = True
-            self.sweep_label.refresh()  # a sweep's label shows over a visible layer only
-        self._settle()
-
-    def _show_outcome(self, plan: RenderPlan, outcome: Outcome | Failure) -> Image | None:
-        """Add (or update) the result layer, or say why there is none."""
+            return
         self._outcome_received = True
         if isinstance(outcome, Failure):
             show_error(f"Labyrinthine tiling failed: {outcome.message}")
             self.status.value = f"Failed: {outcome.message}"
-            return None
-        try:
-            return self._add_result(plan, outcome)
-        except Exception as exc:  # noqa: BLE001 - shown to the user, not as a traceback
-            show_error(f"Labyrinthine tiling: could not add the result layer: {exc}")
-            self.status.value = f"Failed: {exc}"
-            return None
-
-    def _add_result(self, plan: RenderPlan, outcome: Outcome) -> Image:
+            self._settle()
+            return
         key = (plan.source, plan.mode)
         previous = self._results.get(key) if self.replace.value else None
-        layer = add_result_layer(self.viewer, plan, outcome, previous, show_new=False)
-        self.last_result = self._results[key] = layer
-        self.sweep_label.refresh()
-        if plan.mode == "stack" and outcome.metric_rows:
-            self.metrics_table.show_passes(outcome.metric_rows)
-            self.metrics_plot.show_passes(outcome.metric_rows)
-            self._shown_plane = tuple(plan.visible_index)
-            QTimer.singleShot(0, self._reveal_metrics)
-        self.status.value = f"Added {plan.description} ({outcome.seconds:.1f} s)"
-        return layer
+        self._showing = show_result(self.viewer, plan, outcome, previous)
+        self._show_step(plan, outcome)
+
+    def _wanted(self) -> bool:
+        """Whether the run's result is still to be shown (no cancel, the dock open)."""
+        return self._plan is not None and not self._plan.cancel.is_set() and not self._closed
+
+    def _show_step(self, plan: RenderPlan, outcome: Outcome) -> None:
+        """One step of showing the result; the next in a later turn, the end in its own."""
+        steps = self._showing
+        if steps is None:
+            return
+        if not self._wanted():
+            self._showing = None
+            _abandon(steps)
+            self._outcome_received = False  # said as cancelled
+            self._settle()
+            return
+        try:
+            next(steps)
+        except StopIteration as done:
+            self._showing = None
+            self._shown(plan, outcome, done.value)
+            return
+        except Exception as exc:  # noqa: BLE001 - shown to the user, not as a traceback
+            self._showing = None
+            _abandon(steps)
+            show_error(f"Labyrinthine tiling: could not add the result layer: {exc}")
+            self.status.value = f"Failed: {exc}"
+            self._settle()
+            return
+        QTimer.singleShot(NEXT_TURN_MS, lambda: self._show_step(plan, outcome))
+
+    def _shown(self, plan: RenderPlan, outcome: Outcome, layer: Image | None) -> None:
+        """The result is on screen: the widget says so, and settles."""
+        if layer is not None:
+            self.last_result = self._results[(plan.source, plan.mode)] = layer
+            self.sweep_label.refresh()
+            if plan.mode == "stack" and outcome.metric_rows:
+                self.metrics_table.show_passes(outcome.metric_rows)
+                self.metrics_plot.show_passes(outcome.metric_rows)
+                self._shown_plane = tuple(plan.visible_index)
+                QTimer.singleShot(0, self._reveal_metrics)
+            self.status.value = f"Added {plan.description} ({outcome.seconds:.1f} s)"
+        else:
+            self.status.value = "The result layer was removed before it was shown."
+        self._settle()
 
     def _reveal_metrics(self, attempts: int = 10, last: tuple = ()) -> None:
         """Scroll the dock to the metrics just shown: the plot in full, and the table's
@@ -564,6 +584,13 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
 
 def _nothing() -> None:
     pass
+
+
+def _abandon(steps) -> None:
+    """Close the steps of showing a result, which takes back a layer they inserted; a
+    viewer that is closing may have lost its Qt side: nothing more to take back then."""
+    with contextlib.suppress(RuntimeError):
+        steps.close()
 
 
 def _fit_label_widths(box: Container) -> None:

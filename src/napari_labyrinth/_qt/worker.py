@@ -51,21 +51,56 @@ def add_result_layer(
     plan: RenderPlan,
     outcome: Outcome,
     previous: Image | None = None,
-    *,
-    show_new: bool = True,
-) -> Image:
-    """Show the result of a finished run; a stack or sweep shows its last plane.
+) -> Image | None:
+    """Show the result of a finished run at once (all of :func:`show_result`'s steps).
 
-    A ``previous`` result still in the viewer is replaced: updated in place
-    (data, name, metadata, contrast, transforms) when it can hold the new
-    data (same number of axes, both RGB or both not), else removed and the
-    new layer put in its place in the layer list. In place is much cheaper
-    for the event loop: napari builds no new visual and no new controls,
-    and removing a layer makes napari run a full garbage collection.
+    Returns the layer, or None when it was removed from the viewer meanwhile.
+    """
+    steps = show_result(viewer, plan, outcome, previous)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
 
-    With ``show_new=False`` a new layer is left hidden: the caller shows it
-    (``visible = True``) in a later turn of the event loop, so that napari's
-    adding it and its first draw do not stall the event loop together.
+
+def show_result(
+    viewer: Viewer,
+    plan: RenderPlan,
+    outcome: Outcome,
+    previous: Image | None = None,
+) -> Generator[str, None, Image | None]:
+    """Show the result of a finished run, one step at each ``next()``; a stack or sweep
+    shows its last plane.
+
+    Each step yields what it did; the generator then returns the layer (None when
+    the user removed it between two steps). The widget runs one step per turn of
+    the event loop, so that no turn holds napari's work of adding a layer and of
+    drawing it together:
+
+    1. the layer is built, hidden (a few ms);
+    2. it is inserted in the layer list: napari builds its vispy visual and its
+       layer controls, selects it (shows its controls, restyles its buttons), and
+       repaints the layer list;
+    3. it is made the active layer if it is not (a plugin cannot keep napari from
+       selecting a layer as it inserts it but through a private switch) and the
+       slider of a stack or sweep moves to its last plane;
+    4. it is made visible: napari slices it once, where the viewer stands (a new
+       layer is otherwise sliced at index 0 first: a lazy plane computed for
+       nothing), and the canvas draws it, uploading its texture;
+    5. a ``previous`` result that could not be updated in place is removed (napari
+       runs a full garbage collection for every layer removed: a turn of its own).
+
+    A ``previous`` result still in the viewer is replaced: updated in place (data,
+    name, metadata, contrast, transforms; one step) when it can hold the new data
+    (same number of axes, both RGB or both not), else a new layer takes its place
+    in the layer list. In place is much cheaper for the event loop: napari builds
+    no new visual and no new controls, and removes no layer.
+
+    Closing the generator before its end (a cancel, a closed dock, a removed
+    input), or a step that fails, takes a layer it inserted back out of the
+    viewer and leaves ``previous`` where it is (an update in place, a single
+    step, is done once it has yielded).
     """
     data, kwargs = result_layer(plan, outcome)
     if _updatable(viewer, previous, data, kwargs):
@@ -73,21 +108,47 @@ def add_result_layer(
         layer.visible = False  # sliced once below, where the viewer will stand
         _update_in_place(layer, data, kwargs)
         viewer.layers.selection.active = layer
-    else:
-        # Added hidden, so that napari slices it once, where the viewer stands (a
-        # new layer is otherwise sliced at index 0 first: a lazy plane computed
-        # for nothing), after the slider of a stack or sweep moves to its end.
-        layer = viewer.add_image(data, visible=False, **kwargs)
-        if previous is not None and previous in viewer.layers:
-            position = viewer.layers.index(previous)
-            viewer.layers.remove(previous)
-            viewer.layers.move(viewer.layers.index(layer), position)
+        _go_to_last_plane(viewer, plan, layer, data)
+        layer.visible = True
+        yield "updated in place"
+        return layer
+    layer = Image(data, visible=False, **kwargs)
+    yield "built"
+    replaced = previous if previous is not None and previous in viewer.layers else None
+    # just above the layer it replaces, which then leaves its place to it
+    position = viewer.layers.index(replaced) + 1 if replaced is not None else len(viewer.layers)
+    try:
+        insert_layer(viewer, position, layer)
+        yield "inserted"
+        if layer not in viewer.layers:
+            return None
+        viewer.layers.selection.active = layer
+        _go_to_last_plane(viewer, plan, layer, data)
+        yield "selected"
+        if layer not in viewer.layers:
+            return None
+        layer.visible = True
+        yield "shown"
+    except BaseException:  # closed early (GeneratorExit), or a step failed
+        if layer in viewer.layers:
+            viewer.layers.remove(layer)
+        raise
+    if replaced is not None and replaced in viewer.layers:
+        viewer.layers.remove(replaced)
+        yield "previous removed"
+    return layer if layer in viewer.layers else None
+
+
+def insert_layer(viewer: Viewer, position: int, layer: Image) -> None:
+    """Insert ``layer`` in the layer list at ``position`` (napari selects it)."""
+    viewer.layers.insert(position, layer)
+
+
+def _go_to_last_plane(viewer: Viewer, plan: RenderPlan, layer: Image, data) -> None:
+    """Move the slider of a stack's or sweep's leading axis to its last plane."""
     if plan.mode in ("stack", "sweep"):
         axis = viewer.dims.ndim - layer.ndim
         viewer.dims.set_current_step(axis, data.shape[0] - 1)
-    if layer is previous or show_new:
-        layer.visible = True
-    return layer
 
 
 #: Attributes of a result layer that an update in place sets (``data`` first); the rest of
