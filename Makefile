@@ -31,10 +31,11 @@ bench: $(VENV)/.installed
 	$(PY) benchmarks/bench_kernel.py
 	$(PY) benchmarks/bench_parallel.py
 
-# One plane, fast: C reference vs kernel vs labyrinth() (2048², 1 and 4 passes), then the
-# exact-order parallel pass (2048² and 8192², a loaded core, tile sizes, a model for 8/16 cores).
+# One plane, fast: C reference vs kernel vs labyrinth() (2048², 1 and 4 passes; 1 pass on 17
+# other images), then the exact-order parallel pass (2048² and 8192², a loaded core, tile
+# sizes, a model for 8/16 cores).
 bench-speed: $(VENV)/.installed
-	$(PY) benchmarks/bench_kernel.py --no-start-up
+	$(PY) benchmarks/bench_kernel.py --no-start-up --images
 	$(PY) benchmarks/bench_parallel.py --sections exact loaded tiles model
 
 bench-scale: $(VENV)/.installed-test

@@ -21,9 +21,11 @@ machine disturbs less) and ratios; the load average is printed beside them.
 Also: the pure-Python oracle, import time and the first call in a new
 process (cold and warm numba cache); with ``--overhead``, the steps of
 ``labyrinth()`` around the pass timed on their own (paper, uint16, 1 pass),
-and the default tone limits of four kinds of uint16 image.
+and the default tone limits of seventeen uint16 images (photographs, textures,
+noise, a dark field: the route each takes); with ``--images``, ``labyrinth()``
+against the kernel on those images too (1 pass, both presets).
 Run: ``make bench`` or ``python benchmarks/bench_kernel.py [--size 2048]
-[--repeats 7] [--overhead]``.
+[--repeats 7] [--overhead] [--images]``.
 """
 
 from __future__ import annotations
@@ -205,15 +207,60 @@ def bench_overhead(size, repeats):
     print(f"  {'labyrinth() - kernel':<34}{around * 1e3:>8.3f} ms  ({load()})")
 
 
+#: scikit-image's own images (shipped with it) that ``other_images`` renders: photographs,
+#: textures, a scan, a micrograph, a sky survey, a silhouette.
+PHOTOGRAPHS = (
+    "coins", "astronaut", "moon", "page", "text", "brick", "grass", "gravel", "retina",
+    "rocket", "hubble_deep_field", "immunohistochemistry", "horse",
+)  # fmt: skip
+
+
+def other_images(size):
+    """uint16 planes of ``size`` x ``size``: the :data:`PHOTOGRAPHS` (grey, resized, values
+    times 250) and synthetic planes (noise, a gradient with noise, a dark field)."""
+    from skimage import color, data, transform
+
+    images = {"camera": camera(size, np.uint16)}
+    for name in PHOTOGRAPHS:
+        image = getattr(data, name)()
+        if image.ndim == 3:
+            image = color.rgb2gray(image[..., :3]) * 255
+        image = transform.resize(image.astype(float), (size, size), order=1, preserve_range=True)
+        images[name] = (image * 250).astype(np.uint16)
+    rng = np.random.default_rng(0)
+    ramp = np.add.outer(np.arange(size), np.arange(size)) * (16384 // size)
+    images["noise"] = rng.integers(0, 65536, (size, size)).astype(np.uint16)
+    images["gradient + noise"] = (ramp + rng.integers(0, 500, (size, size))).astype(np.uint16)
+    images["dark field, 0.3 % bright"] = np.where(
+        rng.random((size, size)) < 0.003, 60000, 100 + rng.integers(0, 20, (size, size))
+    ).astype(np.uint16)
+    return images
+
+
+def tone_limit_route(image):
+    """Which route ``integer_percentiles`` takes for the default tone limits of ``image``."""
+    from napari_labyrinth.core.percentiles import (
+        linear_ranks,
+        sampled_rank_values,
+        tail_rank_values,
+    )
+    from napari_labyrinth.core.tone_scale import DEFAULT_PERCENTILES
+
+    flat = image.reshape(-1)
+    ranks, _ = linear_ranks(flat.size, DEFAULT_PERCENTILES)
+    if sampled_rank_values(flat, ranks) is not None:
+        return "one sweep"
+    return "two sweeps" if tail_rank_values(flat, ranks) is not None else "count all"
+
+
 def bench_tone_limits(size, repeats):
-    """The default tone limits of four uint16 images: the one-sweep route of
-    ``integer_percentiles`` against the two sweeps alone (then a count of every
-    value where they give up), interleaved; which route each image takes."""
+    """The default tone limits of uint16 images: ``integer_percentiles`` (its one-sweep
+    route, else the two sweeps, else a count of every value) against the two sweeps
+    alone (then the count where they give up), interleaved; the route each image takes."""
     from napari_labyrinth.core._tone_loops import count_values
     from napari_labyrinth.core.percentiles import (
         integer_percentiles,
         linear_ranks,
-        sampled_rank_values,
         tail_rank_values,
     )
     from napari_labyrinth.core.tone_scale import DEFAULT_PERCENTILES
@@ -224,21 +271,8 @@ def bench_tone_limits(size, repeats):
         if tail_rank_values(flat, ranks) is None:
             count_values(flat, 0, np.zeros(65536, np.int64))
 
-    rng = np.random.default_rng(0)
-    ramp = np.add.outer(np.arange(size), np.arange(size)) * (16384 // size)
-    images = {
-        "camera": camera(size, np.uint16),
-        "noise": rng.integers(0, 65536, (size, size)).astype(np.uint16),
-        "gradient + noise": (ramp + rng.integers(0, 500, (size, size))).astype(np.uint16),
-        "dark field, 0.3 % bright": np.where(
-            rng.random((size, size)) < 0.003, 60000, 100 + rng.integers(0, 20, (size, size))
-        ).astype(np.uint16),
-    }
     print(f"\ndefault tone limits of {size}^2 uint16 images, best of {repeats} interleaved")
-    for name, image in images.items():
-        flat = image.reshape(-1)
-        ranks, _ = linear_ranks(flat.size, DEFAULT_PERCENTILES)
-        route = "one sweep" if sampled_rank_values(flat, ranks) is not None else "fallback"
+    for name, image in other_images(size).items():
         variants = {
             "integer_percentiles": (
                 image.copy,
@@ -250,9 +284,47 @@ def bench_tone_limits(size, repeats):
             run(prepare())
         wall, _ = interleaved(variants, repeats)
         print(
-            f"  {name:<26}{route:<11}integer_percentiles {wall['integer_percentiles'] * 1e3:6.3f}"
-            f" ms, two sweeps {wall['two sweeps'] * 1e3:6.3f} ms  ({load()})"
+            f"  {name:<26}{tone_limit_route(image):<11}integer_percentiles"
+            f" {wall['integer_percentiles'] * 1e3:6.3f} ms, two sweeps"
+            f" {wall['two sweeps'] * 1e3:6.3f} ms  ({load()})"
         )
+
+
+def bench_images(size, repeats):
+    """``labyrinth()`` against the kernel alone, 1 pass, one thread, on each of
+    :func:`other_images`, both presets: how the ratio of the first table holds on inputs
+    whose tone limits take other routes and whose passes take other times."""
+    from napari_labyrinth import labyrinth, resolve_parameters
+    from napari_labyrinth._engine import run_pass
+    from napari_labyrinth.core.tone_scale import resolve_tone_scale
+
+    print(f"\nlabyrinth() / kernel on other {size}^2 uint16 images, 1 pass, one thread")
+    print(f"  {'image':<26}{'tone limits':<12}{'preset':<10}{'kernel ms':>10}{'labyr.() ms':>12}"
+          f"{'api/kernel':>11}")  # fmt: skip
+    for name, image in other_images(size).items():
+        tones = resolve_tone_scale(image, None).to_tones(image)
+        for preset in ("paper", "labyrinth"):
+            parameters = resolve_parameters(preset, passes=1)
+            variants = {
+                "kernel": (
+                    tones.copy,
+                    lambda work, p=parameters: run_pass(work, p, has_nonfinite=False),
+                ),
+                "api": (
+                    image.copy,
+                    lambda values, preset=preset: labyrinth(
+                        values, preset=preset, passes=1, workers=1
+                    ),
+                ),
+            }
+            for prepare, run in variants.values():
+                run(prepare())
+            wall, _ = interleaved(variants, repeats)
+            print(
+                f"  {name:<26}{tone_limit_route(image):<12}{preset:<10}"
+                f"{wall['kernel'] * 1e3:>10.2f}{wall['api'] * 1e3:>12.2f}"
+                f"{wall['kernel'] / wall['api']:>11.2f}  ({load()})"
+            )
 
 
 def subprocess_seconds(code, env):
@@ -299,12 +371,17 @@ def main(argv=None):
     parser.add_argument(
         "--overhead", action="store_true", help="also time the steps around the pass"
     )
+    parser.add_argument(
+        "--images", action="store_true", help="also labyrinth() / kernel on other images"
+    )
     args = parser.parse_args(argv)
     print(f"{os.cpu_count()} cores, {load()}")
     bench_variants(args.size, args.repeats, c_reference.load())
     if args.overhead:
         bench_overhead(args.size, 3 * args.repeats)
         bench_tone_limits(args.size, 2 * args.repeats)
+    if args.images:
+        bench_images(args.size, args.repeats)
     if not args.no_start_up:
         bench_start_up()
 

@@ -182,6 +182,53 @@ def test_noise_is_left_to_the_other_routes():
     assert sampled_rank_values(values.reshape(-1), ranks, spots=256) is None  # most reach a tail
 
 
+def test_a_texture_whose_tails_reach_many_blocks_takes_the_sampled_route():
+    # brick: dark and bright grains everywhere, so that about a third of the blocks reach
+    # a tail (the sweep counts those), less than half of them
+    from skimage import data, transform
+
+    values = transform.resize(data.brick(), (2048, 2048), order=1, preserve_range=True)
+    values = (values * 250).astype(np.uint16)
+    ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
+    got = sampled_rank_values(values.reshape(-1), ranks)
+    assert got == [int(v) for v in np.sort(values, axis=None)[ranks]]
+
+
+def test_a_wide_window_is_cut_around_the_sampled_value():
+    # a smooth dark field with a few bright objects: the sample places the high ranks'
+    # window from the field's top up into the objects, wider than the widest window
+    rng = np.random.default_rng(5)
+    y, x = np.mgrid[:512, :512]
+    values = 1000 + 4 * x + 2 * y + rng.integers(0, 3, (512, 512))
+    for top, left in rng.integers(0, 500, (12, 2)):
+        values[top : top + 8, left : left + 8] = rng.integers(30000, 60000)
+    values = values.astype(np.uint16)
+    ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
+    got = sampled_rank_values(values.reshape(-1), ranks, spots=256)
+    assert got == [int(v) for v in np.sort(values, axis=None)[ranks]]
+
+
+def test_blocks_of_one_value_are_counted_without_a_visit():
+    # a silhouette: most blocks lie wholly in the black or the white, and both tails'
+    # ranks fall in them (a block of one value is counted whole at once)
+    from skimage import data
+
+    values = np.repeat(np.repeat(data.horse(), 4, axis=0), 4, axis=1).astype(np.uint16) * 60000
+    values[::7, ::5] += 17  # and a few other values
+    ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
+    got = sampled_rank_values(values.reshape(-1), ranks)
+    assert got == [int(v) for v in np.sort(values, axis=None)[ranks]]
+    assert_numpy_percentiles(values, DEFAULT_PERCENTILES)
+
+
+def test_values_of_two_levels_are_left_to_the_count():
+    # every block holds both levels: the sweep would count every block twice
+    values = np.random.default_rng(6).choice([100, 60000], (256, 256)).astype(np.uint16)
+    ranks, _ = linear_ranks(values.size, DEFAULT_PERCENTILES)
+    assert sampled_rank_values(values.reshape(-1), ranks, spots=256) is None
+    assert_numpy_percentiles(values, DEFAULT_PERCENTILES)
+
+
 def test_too_few_values_for_the_sample_are_not_sampled():
     values = np.arange(64 * 64 - 1, dtype=np.uint16)
     assert sampled_rank_values(values, [10, 11], spots=64) is None

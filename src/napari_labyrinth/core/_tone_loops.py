@@ -280,15 +280,19 @@ def sample_starts(n, spots):
 def sampled_tail_values(flat, offset, shift, bins, ranks, values, spots):
     """The values of ``ranks`` (0 the least) of the 8- or 16-bit integers ``flat`` in one
     sweep, with bounds from a sample; False when the sample's bounds miss a rank, when
-    the sample shows many blocks reaching a tail, or for fewer than ``64 * spots`` values.
+    the sample shows nearly every block reaching a tail (noise: a count of every value
+    costs less), or for fewer than ``64 * spots`` values.
 
     A sample of ``spots`` spots (``sample_starts``) of ``SPOT_VALUES`` values is
     binned in the coarse bins ``(v - offset) >> shift`` (``bins`` of them). Around
     each tail's ranks the sample gives a window of values, ``[floor, stop)`` for the
     low ranks (2 r < n), ``[start, ceiling)`` for the others, wide enough for the
-    sample's error. One sweep takes the extremes of every ``EXTREMES_BLOCK`` values
-    and, in the blocks that reach a window or beyond, counts every value of the
-    window and those beyond it (``_count_window_below``, ``_count_window_from``). A
+    sample's error; a window of more than ``_WIDEST_WINDOW`` values (sparse values,
+    as a few bright objects on a dark field leave above the background) is cut to
+    that many around the sample's likeliest value of the ranks. One sweep takes the
+    extremes of every ``EXTREMES_BLOCK`` values and, in the blocks that reach a window
+    or beyond, counts every value of the window and those beyond it
+    (``_count_window_below``, ``_count_window_from``; a block of one value at once). A
     rank's value is exact when it lies in its window, which the counts show: else
     False, and nothing is kept.
     """
@@ -297,14 +301,9 @@ def sampled_tail_values(flat, offset, shift, bins, ranks, values, spots):
         return False
     starts = sample_starts(n, spots)
     coarse = np.zeros(bins, np.int64)
-    spot_least, spot_greatest = np.empty(spots, np.intp), np.empty(spots, np.intp)
     for k in range(spots):
-        low = high = np.intp(flat[starts[k]])
         for i in range(starts[k], starts[k] + 4 * SPOT_VALUES, 4):
-            value = np.intp(flat[i])
-            low, high = min(low, value), max(high, value)
-            coarse[(value - offset) >> shift] += 1
-        spot_least[k], spot_greatest[k] = low, high
+            coarse[(np.intp(flat[i]) - offset) >> shift] += 1
     sampled = spots * SPOT_VALUES
     below = np.zeros(bins + 1, np.int64)  # below[k]: sampled values in the bins before k
     for k in range(bins):
@@ -326,21 +325,36 @@ def sampled_tail_values(flat, offset, shift, bins, ranks, values, spots):
         start = _bin_edge(below, _sample_position(lowest_high, n, sampled, -1), offset, shift)
         ceiling = _bin_edge(below, _sample_position(highest_high, n, sampled, 1), offset, shift)
         ceiling += 1 << shift
-    if stop - floor > _WIDEST_WINDOW or ceiling - start > _WIDEST_WINDOW:
-        return False
-    reaching = 0  # spots that reach a window or beyond: blocks that would be counted
-    for k in range(spots):
-        reaching += spot_least[k] < stop or spot_greatest[k] >= start
-    if _DENSE * reaching > spots:
+    if stop - floor > _WIDEST_WINDOW:  # sparse values: the window around the likeliest
+        middle = _sample_position((lowest_low + highest_low) / 2, n, sampled, 0)
+        floor, stop = _narrowed(floor, stop, _bin_edge(below, middle, offset, shift), shift)
+    if ceiling - start > _WIDEST_WINDOW:
+        middle = _sample_position((lowest_high + highest_high) / 2, n, sampled, 0)
+        start, ceiling = _narrowed(start, ceiling, _bin_edge(below, middle, offset, shift), shift)
+    # the blocks the sweep would count: a sample of whole blocks (a spot's 8 values tell
+    # little of a block's 64 in noise, where nearly every block reaches a window)
+    full = n // block
+    reaching = 0
+    for first in sample_starts(full * block, _GUARD_BLOCKS) // block * block:
+        least, greatest = _extremes(flat[first : first + block], block)
+        if least != greatest:  # a block of one value is counted without a visit
+            reaching += (np.intp(least) < stop) + (np.intp(greatest) >= start)
+    if 2 * reaching > _GUARD_BLOCKS:  # counting half the blocks or more: count every value
         return False
     # slot 0: values below the window; the last slot: values from its end on
     low_counts = np.zeros((4, stop - floor + 2), np.int64)
     high_counts = np.zeros((4, ceiling - start + 2), np.int64)
     top = ceiling - start + 1
-    full = n // block
     for b in range(full):  # blocks of a known size: their extremes are vector reductions
         first = b * block
         least, greatest = _extremes(flat[first : first + block], block)
+        if least == greatest:  # one value (a background, a saturated area): no visit
+            value = np.intp(least)
+            if value < stop:
+                low_counts[0, max(value + 1 - floor, 0)] += block
+            if value >= start:
+                high_counts[0, min(value + 1 - start, top)] += block
+            continue
         if np.intp(least) < stop:
             _count_window_below(flat, first, first + block, stop, 1 - floor, low_counts)
         if np.intp(greatest) >= start:
@@ -368,13 +382,12 @@ def sampled_tail_values(flat, offset, shift, bins, ranks, values, spots):
     return True
 
 
-#: Widest window of values ``sampled_tail_values`` counts (else the two-sweep route).
+#: Widest window of values ``sampled_tail_values`` counts (a wider one is cut to it).
 _WIDEST_WINDOW = 1 << 14
 
-#: ``sampled_tail_values`` leaves to the two sweeps a sample of which more than one
-#: spot in ``_DENSE`` reaches a window (a noisy image, whose blocks would be counted
-#: whole: a block holds 64 values, a spot's sample 8).
-_DENSE = 16
+#: Blocks whose extremes ``sampled_tail_values`` reads to foresee how many blocks the
+#: sweep would count (one in 256 of a 2048² plane's).
+_GUARD_BLOCKS = 256
 
 
 @njit(inline="always")
@@ -386,6 +399,16 @@ def _sample_position(rank, n, sampled, side):
     spread = expected * (sampled - expected) / sampled  # binomial variance
     margin = 3.0 * math.sqrt(SPOT_VALUES * (spread + 1.0)) + SPOT_VALUES
     return expected + side * margin
+
+
+@njit(inline="always")
+def _narrowed(first, last, bin_start, shift):
+    """The window ``[first, last)`` cut to ``_WIDEST_WINDOW`` values around the coarse bin
+    that starts at ``bin_start`` (where the sample places a rank's value)."""
+    centre = bin_start + (1 << shift) // 2
+    first = max(first, centre - _WIDEST_WINDOW // 2)
+    last = min(last, first + _WIDEST_WINDOW)
+    return max(first, last - _WIDEST_WINDOW), last
 
 
 @njit(inline="always")
