@@ -38,9 +38,25 @@ page faults (``getrusage``), in a fresh process per tree and round: round 1
 is a first call in the process (new memory), the later rounds are calls on
 new originals in a warm process.
 
+``--first-calls N`` times what a user's first call costs: ``N`` fresh
+processes per tree (interleaved), each loading the planes, making a small
+call that loads numba's cache (64 x 64), then timing one
+``metrics.describe(original, rendered)`` at each size, with its user and
+system time and page faults; the reference is timed once per round. It
+prints every call, then each tree's median, worst and how many calls reach
+30x the best reference time. With ``--render-first`` each process renders
+the plane itself (``labyrinth(original, seed=0)``, the default preset)
+before the call, as a stack run does: memory freed just before changes
+what the first touches of new memory cost.
+
+``--release`` times the pool letting its arrays go (``_SHARED_POOL.clear()``,
+what its timer does 10 s after the last use) after a first call, in a fresh
+process per tree and round, and the longest gap a thread ticking every
+0.5 ms saw meanwhile (how long the GIL was held at once).
+
 Run: ``python benchmarks/bench_metrics.py [--against /path/to/main] [--sizes 512 2048 4096]
-[--rounds 3] [--stages]``. The reference takes about a minute per call at 4096 x 4096 on
-two cores.
+[--rounds 3] [--stages] [--first-calls N] [--release]``. The reference takes about a minute
+per call at 4096 x 4096 on two cores.
 """
 
 from __future__ import annotations
@@ -203,6 +219,137 @@ def stages(size: int, rounds: int) -> None:
         del comparison
 
 
+def first_call(sizes, folder: Path, render: bool = False) -> None:
+    """One fresh process's first ``metrics.describe`` at each size (planes saved in
+    ``folder``, see :func:`first_calls`; with ``render``, the rendering made here), after
+    a 64 x 64 call; JSON on stdout."""
+    import resource
+
+    from napari_labyrinth import labyrinth, metrics
+
+    def usage():
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return time.perf_counter(), r.ru_utime, r.ru_stime, r.ru_minflt
+
+    small = [np.load(folder / f"{name}-64.npy") for name in ("original", "rendered")]
+    metrics.describe(*small)  # compile or load numba's cache
+    rows = []
+    for size in sizes:
+        original, rendered = (
+            np.load(folder / f"{name}-{size}.npy") for name in ("original", "rendered")
+        )
+        if render:
+            rendered = labyrinth(original, seed=0)
+        begin = usage()
+        metrics.describe(original, rendered)
+        end = usage()
+        rows.append([size, *(b - a for a, b in zip(begin, end))])
+    print(json.dumps({"source": str(Path(metrics.__file__).parent), "rows": rows}))
+
+
+def first_calls(trees: dict[str, Path], sizes, runs: int, render: bool = False) -> None:
+    """``runs`` first calls of ``metrics.describe`` per tree and size, printed (see the module)."""
+    import tempfile
+
+    import _metrics_reference as reference
+
+    calls: dict[tuple[str, int], list] = {}
+    references: dict[int, list[float]] = {}
+    with tempfile.TemporaryDirectory() as name:
+        folder = Path(name)
+        planes = cases([64, *sizes])
+        for size, (original, rendered) in planes.items():
+            np.save(folder / f"original-{size}.npy", original)
+            np.save(folder / f"rendered-{size}.npy", rendered)
+        print("wall ms (user ms + system ms, page faults) of a first describe() in a fresh process")
+        if render:
+            print("(each process renders the plane itself first)")
+        for run in range(runs):
+            print(f"round {run + 1}/{runs}, load average {os.getloadavg()}", flush=True)
+            order = list(trees) if run % 2 == 0 else list(reversed(trees))
+            for tree in order:
+                environment = dict(os.environ, PYTHONPATH=str(trees[tree] / "src"))
+                command = [sys.executable, __file__, "--child", "--first-call", str(folder)]
+                command += ["--sizes", *map(str, sizes)] + ["--render-first"] * render
+                output = subprocess.run(
+                    command, env=environment, capture_output=True, text=True, check=True
+                )
+                report = json.loads(output.stdout.splitlines()[-1])
+                for size, wall, user, system, faults in report["rows"]:
+                    calls.setdefault((tree, size), []).append(wall)
+                    print(
+                        f"  {tree:<7}{size:>5}^2 {wall * 1e3:7.1f} ms ({user * 1e3:5.0f} user"
+                        f" + {system * 1e3:4.0f} system, {faults:6d} page faults)"
+                    )
+            for size in sizes:
+                original, rendered = planes[size]
+                if size <= 2048 or run == 0:
+                    wall, _, _ = timed(reference.describe, original, rendered)
+                    references.setdefault(size, []).append(wall)
+                    print(f"  reference {size:>5}^2 {wall:.3f} s")
+                    time.sleep(1.0)  # let BLAS's worker threads go back to sleep
+    print(f"\nload average at the end {os.getloadavg()}, {os.cpu_count()} cores")
+    print(f"transparent huge pages (enabled / defrag): {_huge_pages()}")
+    for size in sizes:
+        best = min(references[size])
+        print(f"\n{size} x {size}: reference {best:.3f} s (best of {len(references[size])});")
+        print(f"  30x needs a first call of {best / 30 * 1e3:.0f} ms or less")
+        for tree in trees:
+            walls = np.array(calls[(tree, size)])
+            median = float(np.median(walls))
+            print(
+                f"  {tree:<7} median {median * 1e3:6.1f} ms ({best / median:4.0f}x),"
+                f" best {walls.min() * 1e3:6.1f} ms ({best / walls.min():4.0f}x),"
+                f" worst {walls.max() * 1e3:6.1f} ms ({best / walls.max():4.0f}x);"
+                f" {np.sum(best / walls >= 30)} of {walls.size} calls at 30x or more"
+            )
+
+
+def release(size: int) -> None:
+    """The pool's release of a first call's arrays at ``size``, with a ticking thread; printed."""
+    import gc
+    import threading
+
+    from napari_labyrinth import labyrinth, metrics
+
+    original = camera(size)
+    rendered = labyrinth(original, seed=0)
+    small = camera(64)
+    metrics.describe(small, labyrinth(small, seed=0))  # compile or load numba's cache
+    comparison = metrics.Comparison(original)
+    comparison.describe(rendered)
+    del comparison  # the original's arrays go to the pool too
+    gc.collect()
+    pool = metrics._SHARED_POOL
+    kept = pool.nbytes
+    gaps: list[float] = []
+    running = threading.Event()
+    running.set()
+
+    def tick():
+        last = time.perf_counter()
+        while running.is_set():
+            time.sleep(0.0005)
+            now = time.perf_counter()
+            gaps.append(now - last)
+            last = now
+
+    ticker = threading.Thread(target=tick)
+    ticker.start()
+    time.sleep(0.05)
+    gaps.clear()
+    start = time.perf_counter()
+    pool.clear()
+    took = time.perf_counter() - start
+    time.sleep(0.02)
+    running.clear()
+    ticker.join()
+    print(
+        f"    {size:>5}^2 {Path(metrics.__file__).parent}: {kept / 1e6:6.0f} MB let go in"
+        f" {took * 1e3:6.1f} ms; longest gap of the 0.5 ms ticker {max(gaps) * 1e3:5.1f} ms"
+    )
+
+
 def run_child(tree: Path, sizes) -> dict:
     environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
     command = [sys.executable, __file__, "--child", "--sizes", *map(str, sizes)]
@@ -224,10 +371,30 @@ def main(argv=None) -> None:
     parser.add_argument(
         "--stages", action="store_true", help="where a first call's time goes, stage by stage"
     )
+    parser.add_argument(
+        "--first-calls",
+        type=int,
+        default=0,
+        metavar="N",
+        help="N fresh processes per tree, each timing its first describe() (see above)",
+    )
+    parser.add_argument(
+        "--render-first",
+        action="store_true",
+        help="with --first-calls: each process renders the plane before describing it",
+    )
+    parser.add_argument(
+        "--release", action="store_true", help="the pool letting a first call's arrays go"
+    )
+    parser.add_argument("--first-call", type=Path, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
-        if args.stages:
+        if args.first_call is not None:
+            first_call(args.sizes, args.first_call, args.render_first)
+        elif args.release:
+            release(args.sizes[0])
+        elif args.stages:
             stages(args.sizes[0], args.rounds)
         else:
             child(args.sizes)
@@ -241,6 +408,23 @@ def main(argv=None) -> None:
                 command = [sys.executable, __file__, "--child", "--stages"]
                 command += ["--sizes", str(size), "--rounds", str(args.rounds)]
                 subprocess.run(command, env=environment, check=True)
+        return
+
+    if args.release:
+        trees = [ROOT] if args.against is None else [args.against.resolve(), ROOT]
+        for size in args.sizes:
+            for round_number in range(args.rounds):
+                print(f"round {round_number + 1}, load average {os.getloadavg()}", flush=True)
+                for tree in trees if round_number % 2 == 0 else trees[::-1]:
+                    environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
+                    command = [sys.executable, __file__, "--child", "--release"]
+                    subprocess.run(command + ["--sizes", str(size)], env=environment, check=True)
+        return
+    if args.first_calls:
+        trees = {"this": ROOT}
+        if args.against is not None:
+            trees = {"before": args.against.resolve(), "this": ROOT}
+        first_calls(trees, args.sizes, args.first_calls, args.render_first)
         return
 
     import _metrics_reference as reference
