@@ -488,3 +488,23 @@ def test_a_finalizer_gives_arrays_back_without_waiting_for_the_pool():
         assert not finalizer.is_alive()  # it did not wait for the lock
     assert pool.nbytes == 8 * 20  # kept at the pool's next use
     pool.clear()
+
+
+@pytest.mark.parametrize("workers", [1, 2, 3])
+def test_a_copy_in_bands_is_the_plane_in_float64(workers):
+    rng = np.random.default_rng(1)
+    source = rng.integers(0, 65536, size=(300, 257), dtype=np.uint16)[:, ::2]  # strided
+    target = np.full(source.shape, np.nan)
+    metrics._copy_in_bands(target, source, workers)
+    np.testing.assert_array_equal(target, source.astype(np.float64))
+
+
+def test_the_pool_keeps_one_shape_and_lets_everything_go_when_cleared():
+    pool = metrics._Pool(idle=60.0)
+    pool.give([np.empty((8, 8)), np.empty((8, 8), np.float32)])
+    assert pool.nbytes == 8 * 8 * 12
+    pool.give([np.empty((4, 4))])  # another shape: the first shape's arrays go
+    assert pool.nbytes == 4 * 4 * 8
+    pool.clear()
+    assert pool.nbytes == 0
+    pool._timer.cancel()

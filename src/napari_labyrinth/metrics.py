@@ -165,6 +165,20 @@ def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) ->
     return results
 
 
+def _copy_rows(target: np.ndarray, source: np.ndarray, y0: int, y1: int) -> None:
+    np.copyto(target[y0:y1], source[y0:y1], casting="unsafe")  # real dtypes: exact in float64
+
+
+def _copy_in_bands(target: np.ndarray, source: np.ndarray, workers: int | None) -> None:
+    """``target[...] = source`` on bands of rows, on threads (numpy's copy releases the GIL).
+
+    A first copy into a new array is mostly its page faults (a 2048 x 2048
+    float64 plane is 32 MB of memory the process may never have touched):
+    threads share them.
+    """
+    _in_bands(_copy_rows, source.shape[0], workers, target, source)
+
+
 class _LastPlane:
     """A thread-safe cache of one value: the one computed for the last plane's content.
 
@@ -200,14 +214,14 @@ class _LastPlane:
 class _Pool:
     """Arrays of maps that are done, for the next maps of the same shape.
 
-    A fresh array costs its page faults: a first describe writes about 65
-    bytes a pixel of new maps, and the kernel may have to compact memory to
-    back them with huge pages (``docs/metrics.md``). The passes of a stack,
-    and the next original of the same shape, take the arrays of the last
-    ones instead. Thread-safe. Keeps the arrays of one shape only (those of
-    the last array given back), at most ``pixel_bytes`` bytes a pixel of it,
-    and drops them all ``idle`` seconds after the last array was given back
-    (a timer thread waits that long).
+    A fresh array costs its page faults: a first describe writes about 66
+    bytes a pixel of new maps and plane copies, and a virtual machine may
+    have to have its host back them first (``docs/metrics.md``). The passes
+    of a stack, and the next original of the same shape, take the arrays of
+    the last ones instead. Thread-safe. Keeps the arrays of one shape only
+    (those of the last array given back), at most ``pixel_bytes`` bytes a
+    pixel of it, and drops them all ``idle`` seconds after the last array
+    was given back (a timer thread waits that long).
     """
 
     def __init__(self, pixel_bytes: int = 96, idle: float = 10.0):
@@ -1001,7 +1015,7 @@ class Comparison:
         array = _plane(original, "original")
         self._pool = _SHARED_POOL
         plane = self._pool.take(array.shape, np.float64)
-        np.copyto(plane, array, casting="unsafe")  # real dtypes: exact in float64
+        _copy_in_bands(plane, array, workers)
         # the renderings' walls only; the maps' arrays go back to the pool with the object
         self._maps = _Maps(plane, workers, self._pool, walls=False)
         self._maps._taken.append(plane)
@@ -1038,7 +1052,7 @@ class Comparison:
         after_array = _plane(rendered, "rendered")
         _same_shape(self._maps.plane, after_array)
         plane = self._pool.take(after_array.shape, np.float64)
-        np.copyto(plane, after_array, casting="unsafe")  # real dtypes: exact in float64
+        _copy_in_bands(plane, after_array, self.workers)
         after = _Maps(plane, self.workers, self._pool)
         after._taken.append(plane)
         return after
