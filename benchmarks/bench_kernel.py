@@ -58,12 +58,16 @@ def load():
     return "load %.2f %.2f %.2f" % os.getloadavg()
 
 
-def interleaved(variants, repeats):
+def interleaved(variants, repeats, *, warm=False):
     """Best wall and thread-CPU seconds of each variant, run in turn ``repeats`` times.
 
     A variant is ``(prepare, run)``: ``prepare()`` (untimed) returns the
-    argument of ``run``.
+    argument of ``run``. With ``warm``, each runs once untimed first (numba
+    compiles or loads its cache).
     """
+    if warm:
+        for prepare, run in variants.values():
+            run(prepare())
     wall = dict.fromkeys(variants, np.inf)
     cpu = dict.fromkeys(variants, np.inf)
     for _ in range(repeats):
@@ -196,9 +200,7 @@ def bench_overhead(size, repeats):
             lambda values: resolve_parameters("paper", passes=1),
         ),
     }
-    for prepare, run in variants.values():
-        run(prepare())  # compile
-    wall, _ = interleaved(variants, repeats)
+    wall, _ = interleaved(variants, repeats, warm=True)
     print(f"\nlabyrinth() around the pass: paper, uint16, 1 pass, {size}^2, one thread;")
     print(f"best of {repeats} interleaved rounds, each step on a fresh copy of the image")
     for name, seconds in wall.items():
@@ -280,9 +282,7 @@ def bench_tone_limits(size, repeats):
             ),
             "two sweeps": (image.copy, two_sweeps),
         }
-        for prepare, run in variants.values():
-            run(prepare())
-        wall, _ = interleaved(variants, repeats)
+        wall, _ = interleaved(variants, repeats, warm=True)
         print(
             f"  {name:<26}{tone_limit_route(image):<11}integer_percentiles"
             f" {wall['integer_percentiles'] * 1e3:6.3f} ms, two sweeps"
@@ -303,6 +303,7 @@ def bench_images(size, repeats):
           f"{'api/kernel':>11}")  # fmt: skip
     for name, image in other_images(size).items():
         tones = resolve_tone_scale(image, None).to_tones(image)
+        route = tone_limit_route(image)
         for preset in ("paper", "labyrinth"):
             parameters = resolve_parameters(preset, passes=1)
             variants = {
@@ -317,11 +318,9 @@ def bench_images(size, repeats):
                     ),
                 ),
             }
-            for prepare, run in variants.values():
-                run(prepare())
-            wall, _ = interleaved(variants, repeats)
+            wall, _ = interleaved(variants, repeats, warm=True)
             print(
-                f"  {name:<26}{tone_limit_route(image):<12}{preset:<10}"
+                f"  {name:<26}{route:<12}{preset:<10}"
                 f"{wall['kernel'] * 1e3:>10.2f}{wall['api'] * 1e3:>12.2f}"
                 f"{wall['kernel'] / wall['api']:>11.2f}  ({load()})"
             )
