@@ -508,3 +508,38 @@ def test_the_pool_keeps_one_shape_and_lets_everything_go_when_cleared():
     pool.clear()
     assert pool.nbytes == 0
     pool._timer.cancel()
+
+
+@pytest.mark.parametrize("dtype, top", [(np.uint8, 255), (np.uint16, 65535)])
+def test_planes_read_in_their_own_dtype_give_the_float64_planes_numbers_bit_for_bit(dtype, top):
+    """uint8 and uint16 planes are copied and read as they are (``_KERNEL_DTYPES``): the
+    metrics and maps are those of their float64 copies, down to the last bit, with tones
+    at both ends of the range (a sum of two largest tones does not wrap)."""
+    from napari_labyrinth import labyrinth
+
+    original = (cholesteric_fingerprint((150, 170), seed=3) * top).astype(dtype)
+    original[:20] = top  # saturated rows: largest sums and squares
+    original[-20:, :30] = 0
+    rendered = labyrinth(original, seed=1)
+    assert rendered.dtype == dtype and rendered.max() == top and rendered.min() == 0
+    as_floats = original.astype(np.float64), rendered.astype(np.float64)
+    comparison = metrics.Comparison(original, workers=2)
+    assert comparison._maps.plane.dtype == dtype  # the copy the kernels read
+    expected = metrics.Comparison(as_floats[0], workers=2).describe(as_floats[1])
+    assert comparison.describe(rendered) == expected
+    assert metrics.describe(original, rendered) == expected
+    assert not math.isnan(expected["contour_alignment"])
+    single = metrics._Maps(metrics._kernel_plane(rendered), workers=2)
+    floats = metrics._Maps(as_floats[1], workers=2)
+    for ours, theirs in zip(single.walls(), floats.walls()):
+        np.testing.assert_array_equal(ours, theirs)
+    np.testing.assert_array_equal(single.fine()[0], floats.fine()[0])
+    np.testing.assert_array_equal(single.above_local_mean(), floats.above_local_mean())
+    assert metrics.edge_enhancement(original, rendered) == expected["edge_enhancement"]
+    assert metrics.wall_width(rendered) == expected["wall_width"]
+
+
+def test_other_dtypes_are_read_as_float64():
+    for dtype in (np.int8, np.int16, np.int32, np.uint32, np.float32, np.float64):
+        assert metrics._kernel_dtype(dtype) == np.float64
+    assert metrics._kernel_plane(np.zeros((4, 4), np.int16)).dtype == np.float64

@@ -476,7 +476,6 @@ EDGE = 12
 def smooth_band(
     fine,
     fine32,
-    plane,
     mode,
     weights,
     weights32,
@@ -541,7 +540,7 @@ def smooth_band(
             b1 = min(e1, b0 + Y_BLOCK)
             _smooth_block(
                 fine,
-                plane,
+                fine,  # the plane: not read in these modes
                 energy_mode,
                 no_lag,
                 no_lag,
@@ -614,7 +613,7 @@ def smooth_band(
                         continue
                     _smooth_block(
                         fine32,
-                        plane,
+                        fine,  # the plane: not read in this mode
                         mode,
                         LAG_DY[m],
                         LAG_DX[m],

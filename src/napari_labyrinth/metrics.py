@@ -99,6 +99,31 @@ def _float_plane(array: np.ndarray, *, copy: bool = False) -> np.ndarray:
     return np.ascontiguousarray(array, dtype=np.float64)
 
 
+#: Dtypes the kernels read as they are: every value is exact in float64, and every
+#: kernel's arithmetic on a plane's value starts by combining it with a float64 (a
+#: sum of two of them is taken in 64-bit integers, also exact), so the maps are those
+#: of the plane's float64 copy, bit for bit. A copy of such a plane takes 1 or 2 bytes
+#: a pixel instead of float64's 8 (new memory, whose first touch is slow: ``_Pool``).
+#: Signed integers are not among them (``abs`` of the most negative value overflows),
+#: nor float32 (a sum of two float32 values is rounded to float32).
+_KERNEL_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16))
+
+
+def _kernel_dtype(dtype) -> np.dtype:
+    """The dtype of the copy of a plane of ``dtype`` that the kernels read."""
+    dtype = np.dtype(dtype)
+    return dtype if dtype in _KERNEL_DTYPES else np.dtype(np.float64)
+
+
+def _kernel_plane(array: np.ndarray, *, copy: bool = False) -> np.ndarray:
+    """A checked plane as the kernels read it: C-contiguous, in :func:`_kernel_dtype`; a
+    view when it already is, unless ``copy``."""
+    dtype = _kernel_dtype(array.dtype)
+    if copy:
+        return np.array(array, dtype=dtype, order="C", copy=True)
+    return np.ascontiguousarray(array, dtype=dtype)
+
+
 def _same_shape(before: np.ndarray, after: np.ndarray) -> None:
     if before.shape != after.shape:
         raise ValueError(f"original {before.shape} and rendered {after.shape} differ in shape")
@@ -456,7 +481,6 @@ class _Maps:
             kernels.smooth_band,
             fine.fine,
             lag_plane,
-            self.plane,
             mode,
             _weights(WINDOW_SIGMA),
             _weights(WINDOW_SIGMA, np.float32),
@@ -740,7 +764,7 @@ def _maps_of(image, name: str = "image") -> _Maps:
     """The (cached) maps of a plane given to one of the single metrics."""
 
     def make(array):
-        maps = _Maps(_float_plane(array, copy=True))
+        maps = _Maps(_kernel_plane(array, copy=True))
         return maps.plane, maps
 
     return _RENDERED.get(None, _plane(image, name), make)
@@ -748,7 +772,7 @@ def _maps_of(image, name: str = "image") -> _Maps:
 
 def fine_scale(image) -> np.ndarray:
     """The fine-scale component ``h = g - G_1 * g`` of a plane."""
-    fine, _ = _Maps(_float_plane(_plane(image))).fine()
+    fine, _ = _Maps(_kernel_plane(_plane(image))).fine()
     return fine  # a new array, the caller's own
 
 
@@ -758,8 +782,8 @@ def texture_added(original, rendered) -> float:
     ``E(g) = mean(h**2)`` with h the fine-scale component. 1 means no texture
     was added, above 1 texture was added, below 1 the image was smoothed.
     """
-    before = _Maps(_float_plane(_plane(original, "original")))
-    after = _Maps(_float_plane(_plane(rendered, "rendered")))
+    before = _Maps(_kernel_plane(_plane(original, "original")))
+    after = _Maps(_kernel_plane(_plane(rendered, "rendered")))
     return _texture_added(before, after)
 
 
@@ -905,7 +929,7 @@ def contour_alignment(original, rendered, *, contour_sigma: float = CONTOUR_SIGM
     maps = _maps_of(after, "rendered")
     if maps.cover() < MIN_COVER:
         return math.nan  # before the contours are computed for nothing
-    return _contour_alignment(_Maps(_float_plane(before)), maps, contour_sigma)
+    return _contour_alignment(_Maps(_kernel_plane(before)), maps, contour_sigma)
 
 
 def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTOUR_SIGMA) -> float:
@@ -947,7 +971,7 @@ def edge_enhancement(original, rendered) -> float:
     before = _plane(original, "original")
     after = _plane(rendered, "rendered")
     _same_shape(before, after)
-    return _edge_enhancement(_Maps(_float_plane(before)), _Maps(_float_plane(after)))
+    return _edge_enhancement(_Maps(_kernel_plane(before)), _Maps(_kernel_plane(after)))
 
 
 def _edge_enhancement(before: _Maps, after: _Maps) -> float:
@@ -1014,7 +1038,7 @@ class Comparison:
     def __init__(self, original, *, workers: int | None = None):
         array = _plane(original, "original")
         self._pool = _SHARED_POOL
-        plane = self._pool.take(array.shape, np.float64)
+        plane = self._pool.take(array.shape, _kernel_dtype(array.dtype))
         _copy_in_bands(plane, array, workers)
         # the renderings' walls only; the maps' arrays go back to the pool with the object
         self._maps = _Maps(plane, workers, self._pool, walls=False)
@@ -1051,7 +1075,7 @@ class Comparison:
         """The maps of ``rendered`` (checked, copied into an array of the pool)."""
         after_array = _plane(rendered, "rendered")
         _same_shape(self._maps.plane, after_array)
-        plane = self._pool.take(after_array.shape, np.float64)
+        plane = self._pool.take(after_array.shape, _kernel_dtype(after_array.dtype))
         _copy_in_bands(plane, after_array, self.workers)
         after = _Maps(plane, self.workers, self._pool)
         after._taken.append(plane)
