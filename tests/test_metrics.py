@@ -543,3 +543,22 @@ def test_other_dtypes_are_read_as_float64():
     for dtype in (np.int8, np.int16, np.int32, np.uint32, np.float32, np.float64):
         assert metrics._kernel_dtype(dtype) == np.float64
     assert metrics._kernel_plane(np.zeros((4, 4), np.int16)).dtype == np.float64
+
+
+def test_the_originals_contours_are_made_in_the_bytes_of_the_renderings_h(cases, monkeypatch):
+    """h and its float32 copy are done with once the walls' orientation is made: the
+    contours that follow take their bytes (no new memory), and the numbers are those of
+    maps made in arrays of their own."""
+    pool = metrics._Pool(idle=60.0)
+    monkeypatch.setattr(metrics, "_SHARED_POOL", pool)
+    original, rendered = cases["original"], cases["labyrinth"]
+    comparison = metrics.Comparison(original, workers=2)
+    after = comparison._rendering_maps(rendered)
+    fine = after._full_fine()
+    values = dict(comparison._steps(after))
+    contours = comparison._maps._values[("contours", metrics.CONTOUR_SIGMA)][0]
+    assert contours[1] is fine.fine32
+    assert np.shares_memory(contours[2], fine.fine) and np.shares_memory(contours[3], fine.fine)
+    assert values["contour_alignment"] == metrics.contour_alignment(original, rendered)
+    assert values == metrics.Comparison(original, workers=2).describe(rendered)
+    pool._timer.cancel()

@@ -362,6 +362,30 @@ class _Maps:
         self._taken.append(array)
         return array
 
+    def _float32_pair(self) -> tuple[np.ndarray, np.ndarray]:
+        """Two new plane-shaped float32 arrays in one float64 array of the pool (in a first
+        describe, the bytes of a rendering's ``h``: :meth:`give_back_fine`)."""
+        pair = self._empty(np.float64)
+        first, second = pair.reshape(-1).view(np.float32).reshape(2, *self.plane.shape)
+        return first, second
+
+    def give_back_fine(self) -> None:
+        """Give ``h`` and its float32 copy back to the pool once the maps that read them are
+        made (the wall map and the walls' orientation; the energy is the wall pass's).
+
+        The original's contours, made next, take those bytes instead of new
+        memory (12 bytes a pixel, whose first touch is slow: :class:`_Pool`).
+        Afterwards :meth:`fine` has no ``h``.
+        """
+        with self._lock:
+            if self._pool is None or not {"walls", "wall_orientation"} <= self._values.keys():
+                return
+            fine = self._values["fine"]
+            arrays = [a for a in (fine.fine, fine.fine32) if any(a is t for t in self._taken)]
+            self._taken = [t for t in self._taken if not any(t is a for a in arrays)]
+            self._values["fine"] = fine._replace(fine=None, fine32=np.empty((1, 1), np.float32))
+        self._pool.give(arrays)
+
     def release(self) -> None:
         """Give the maps' arrays back to the pool; the object must not be used afterwards."""
         if self._pool is not None:
@@ -575,7 +599,7 @@ class _Maps:
             if key not in self._values:
                 coherent = self._empty(np.float32)
                 # the kernel writes each pixel's strength, then coherence * strength over it
-                maps = (coherent, coherent, self._empty(np.float32), self._empty(np.float32))
+                maps = (coherent, coherent, *self._float32_pair())
                 tiles = _tensor_tiles(self.plane.shape[1], sigma)
                 self._values[key] = (maps, np.zeros((self.plane.shape[0], tiles), dtype=bool))
             maps, done = self._values[key]
@@ -1088,6 +1112,7 @@ class Comparison:
             yield "labyrinth_cover", after.cover()
             yield "wall_width", _wall_width(after)
             yield "orientation_coherence", _orientation_coherence(after)
+            after.give_back_fine()  # the contours take its bytes
             yield "contour_alignment", _contour_alignment(before, after)
             yield "edge_enhancement", _edge_enhancement(before, after)
         finally:
