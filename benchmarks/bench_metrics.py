@@ -25,8 +25,9 @@ branch, as ``before``), so both pay the same first-call costs. Besides the
 wall time, each call's CPU time (all threads) is recorded: CPU / wall near
 the number of cores means the call used them all.
 
-After the timings each tree reports the numpy arrays a first call leaves
-(``tracemalloc``, bytes per pixel: the memory a first call touches for the
+After the timings each tree reports the new memory of a first call (the
+most numpy arrays alive at once during it, ``tracemalloc``, the original's
+copy included, bytes per pixel: the memory a first call touches for the
 first time, whose page faults are system time), and the run prints the
 kernel's transparent huge page settings: with ``defrag`` at ``madvise``, a
 first touch of numpy's large arrays may wait for the kernel to compact memory.
@@ -43,8 +44,9 @@ processes per tree (interleaved), each loading the planes, making a small
 call that loads numba's cache (64 x 64), then timing one
 ``metrics.describe(original, rendered)`` at each size, with its user and
 system time and page faults; the reference is timed once per round. It
-prints every call, then each tree's median, worst and how many calls reach
-30x the best reference time. With ``--render-first`` each process renders
+prints every call, then each tree's median, worst, how many calls reach
+30x the best reference time and the new memory of a first call (measured
+after the timings, on another original). With ``--render-first`` each process renders
 the plane itself (``labyrinth(original, seed=0)``, the default preset)
 before the call, as a stack run does: memory freed just before changes
 what the first touches of new memory cost.
@@ -146,7 +148,10 @@ def child(sizes) -> None:
 
 
 def _first_call_bytes(original, rendered) -> float:
-    """Bytes per pixel of the numpy arrays that a first call leaves (its maps)."""
+    """Bytes per pixel of new numpy arrays a first ``describe()`` in a process makes: the
+    largest amount of them alive at once during the call (``tracemalloc``), the copy of
+    the original included; the memory whose first touch is a page fault."""
+    import gc
     import tracemalloc
 
     from napari_labyrinth import metrics
@@ -154,12 +159,12 @@ def _first_call_bytes(original, rendered) -> float:
     pool = getattr(metrics, "_SHARED_POOL", None)
     if pool is not None:
         pool.clear()  # the arrays of earlier calls: a first call in a process has none
-    comparison = metrics.Comparison(original)
+    gc.collect()
     tracemalloc.start()
-    comparison.describe(rendered)
-    kept = tracemalloc.get_traced_memory()[0]
+    metrics.Comparison(original).describe(rendered)
+    peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
-    return kept / original.size
+    return peak / original.size
 
 
 def _huge_pages() -> str:
@@ -186,6 +191,11 @@ def stages(size: int, rounds: int) -> None:
         r = resource.getrusage(resource.RUSAGE_SELF)
         return time.perf_counter(), r.ru_utime, r.ru_stime, r.ru_minflt
 
+    def _contours(comparison, after):
+        if hasattr(after, "give_back_fine"):  # as Comparison.describe does before the contours
+            after.give_back_fine()
+        return comparison._maps.contours(metrics.CONTOUR_SIGMA, after.walls()[0])
+
     steps = (
         ("original's own maps", lambda c, a: c._maps._fine()),
         ("rendering's h", lambda c, a: a._full_fine()),
@@ -194,7 +204,7 @@ def stages(size: int, rounds: int) -> None:
         ("wall_width", lambda c, a: metrics._wall_width(a)),
         ("walls' orientation", lambda c, a: a.wall_orientation()),
         ("orientation_coherence", lambda c, a: metrics._orientation_coherence(a)),
-        ("contours", lambda c, a: c._maps.contours(metrics.CONTOUR_SIGMA, a.walls()[0])),
+        ("contours", _contours),
         ("contour_alignment", lambda c, a: metrics._contour_alignment(c._maps, a)),
         ("edge_enhancement", lambda c, a: metrics._edge_enhancement(c._maps, a)),
     )
@@ -244,6 +254,12 @@ def first_call(sizes, folder: Path, render: bool = False) -> None:
         metrics.describe(original, rendered)
         end = usage()
         rows.append([size, *(b - a for a, b in zip(begin, end))])
+    # after the timings: the new memory of a first call, on another original
+    for row, size in zip(rows, sizes):
+        original, rendered = (
+            np.load(folder / f"{name}-{size}.npy") for name in ("original", "rendered")
+        )
+        row.append(_first_call_bytes(original[::-1].copy(), rendered))
     print(json.dumps({"source": str(Path(metrics.__file__).parent), "rows": rows}))
 
 
@@ -254,6 +270,7 @@ def first_calls(trees: dict[str, Path], sizes, runs: int, render: bool = False) 
     import _metrics_reference as reference
 
     calls: dict[tuple[str, int], list] = {}
+    memory: dict[tuple[str, int], float] = {}
     references: dict[int, list[float]] = {}
     with tempfile.TemporaryDirectory() as name:
         folder = Path(name)
@@ -275,8 +292,9 @@ def first_calls(trees: dict[str, Path], sizes, runs: int, render: bool = False) 
                     command, env=environment, capture_output=True, text=True, check=True
                 )
                 report = json.loads(output.stdout.splitlines()[-1])
-                for size, wall, user, system, faults in report["rows"]:
+                for size, wall, user, system, faults, pixel_bytes in report["rows"]:
                     calls.setdefault((tree, size), []).append(wall)
+                    memory[(tree, size)] = pixel_bytes
                     print(
                         f"  {tree:<7}{size:>5}^2 {wall * 1e3:7.1f} ms ({user * 1e3:5.0f} user"
                         f" + {system * 1e3:4.0f} system, {faults:6d} page faults)"
@@ -301,7 +319,8 @@ def first_calls(trees: dict[str, Path], sizes, runs: int, render: bool = False) 
                 f"  {tree:<7} median {median * 1e3:6.1f} ms ({best / median:4.0f}x),"
                 f" best {walls.min() * 1e3:6.1f} ms ({best / walls.min():4.0f}x),"
                 f" worst {walls.max() * 1e3:6.1f} ms ({best / walls.max():4.0f}x);"
-                f" {np.sum(best / walls >= 30)} of {walls.size} calls at 30x or more"
+                f" {np.sum(best / walls >= 30)} of {walls.size} calls at 30x or more;"
+                f" new memory {memory[(tree, size)]:.1f} bytes a pixel"
             )
 
 
@@ -491,7 +510,8 @@ def main(argv=None) -> None:
             extra -= min(times[(name, size, "next passes")])[0]
             cells.append(f"{name} {extra:.3f} s")
         print(f"  {size:>5} x {size:<5} " + ", ".join(cells))
-    print("\nnumpy arrays a first call leaves (its maps), bytes per pixel:")
+    print("\nnew memory of a first call (numpy arrays, the original's copy included),")
+    print("bytes a pixel:")
     for size in planes:
         cells = [f"{name} {memory[(name, size)]:.1f}" for name in trees]
         print(f"  {size:>5} x {size:<5} " + ", ".join(cells))
