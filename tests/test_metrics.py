@@ -562,3 +562,15 @@ def test_the_originals_contours_are_made_in_the_bytes_of_the_renderings_h(cases,
     assert values["contour_alignment"] == metrics.contour_alignment(original, rendered)
     assert values == metrics.Comparison(original, workers=2).describe(rendered)
     pool._timer.cancel()
+
+
+def test_the_local_mean_at_the_walls_is_scipys_gaussian_bit_for_bit(cases):
+    """``above_local_mean`` compares each wall pixel with scipy's Gaussian of sigma 2
+    (``reflect``) of the plane, float for float; the other pixels are False."""
+    wide = np.tile(cases["labyrinth"], (1, 7))[:, :1100]  # a column tile inside the plane
+    for plane in (cases["labyrinth"], cases["labyrinth"][:, :150] * 3.7, wide):
+        maps = metrics._Maps(np.ascontiguousarray(plane), workers=2)
+        walls = maps.walls()[0]
+        assert 0.02 < walls.mean() < 0.6
+        expected = plane > ndimage.gaussian_filter(plane, metrics.WINDOW_SIGMA, mode="reflect")
+        np.testing.assert_array_equal(maps.above_local_mean(), expected & walls)

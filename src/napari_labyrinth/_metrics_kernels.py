@@ -429,20 +429,32 @@ def _smooth_block(
 @njit(cache=True, nogil=True)
 def local_mean_band(plane, weights, where, flags, y0, y1):
     """``flags = plane > G * plane`` (scipy's Gaussian of ``weights``, ``reflect``: its
-    floats) on rows ``[y0, y1)``, on the rows of the wall pass's column tiles (``X_TILE``)
-    that hold a True pixel of ``where``; False on the others."""
+    floats) on rows ``[y0, y1)``, at the True pixels of ``where``; False on the others.
+
+    Axis 0 first (a ring of rows, as :func:`_smooth_block`), on the rows of
+    the wall pass's column tiles (``X_TILE``) that hold a True pixel of
+    ``where``; then axis 1 at those pixels only (:func:`_gauss_at_pixel`,
+    the same operations in the same order as :func:`_gauss_line`).
+    """
     height, width = plane.shape
     radius = weights.shape[0] - 1
+    ring_rows = 2 * radius + 1
     span = X_TILE + 2 * radius
-    ring = np.empty((2 * radius + 1, span))
+    ring = np.empty((ring_rows, span))
     column = np.empty(span)
     ext = np.empty(span)
-    result = np.empty((Y_BLOCK, X_TILE))
     needed = np.empty(Y_BLOCK, dtype=np.bool_)
+    lower = np.empty(radius + 1, dtype=np.int64)
+    upper = np.empty(radius + 1, dtype=np.int64)
     no_lag = LAG_DY[0]  # not a compile-time constant (see smooth_band)
     mode = no_lag + MODE_LOCAL_MEAN
     for x0 in range(0, width, X_TILE):
         x1 = min(width, x0 + X_TILE)
+        tile = x1 - x0
+        s0 = max(0, x0 - radius)
+        s1 = min(width, x1 + radius)
+        interior = x0 - radius >= 0 and x1 + radius <= width
+        col = column[: s1 - s0]
         for b0 in range(y0, y1, Y_BLOCK):
             b1 = min(y1, b0 + Y_BLOCK)
             any_row = False
@@ -452,17 +464,49 @@ def local_mean_band(plane, weights, where, flags, y0, y1):
             flags[b0:b1, x0:x1] = False
             if not any_row:
                 continue
-            _smooth_block(
-                plane, plane, mode, no_lag, no_lag, 0.5, weights, b0, b1, x0, x1, ring, column,
-                ext, result, needed,
-            )  # fmt: skip
+            for v in range(b0 - radius, b0 + radius):
+                _source_row(
+                    plane, plane, mode, no_lag, no_lag, 0.5, _reflect(v, height), s0, s1,
+                    ring[v % ring_rows],
+                )  # fmt: skip
             for y in range(b0, b1):
-                if needed[y - b0]:
-                    source = plane[y, x0:x1]
-                    mean = result[y - b0]
-                    out = flags[y, x0:x1]
-                    for i in range(x1 - x0):
-                        out[i] = source[i] > mean[i]
+                v = y + radius
+                _source_row(
+                    plane, plane, mode, no_lag, no_lag, 0.5, _reflect(v, height), s0, s1,
+                    ring[v % ring_rows],
+                )  # fmt: skip
+                if not needed[y - b0]:
+                    continue
+                for j in range(radius + 1):
+                    lower[j] = (y - j) % ring_rows
+                    upper[j] = (y + j) % ring_rows
+                _gauss_rows(ring, lower, upper, y % ring_rows, weights, col)
+                line = col
+                if not interior:
+                    for k in range(tile + 2 * radius):
+                        x = x0 - radius + k
+                        if x < 0 or x >= width:
+                            x = _reflect(x, width)
+                        ext[k] = col[x - s0]
+                    line = ext
+                walls = where[y, x0:x1]
+                source = plane[y, x0:x1]
+                out = flags[y, x0:x1]
+                for i in range(tile):
+                    if walls[i]:
+                        out[i] = source[i] > _gauss_at_pixel(line, i, weights)
+
+
+@njit(cache=True, nogil=True)
+def _gauss_at_pixel(line, i, weights):
+    """:func:`_gauss_line`'s output ``i``: ``line[r + i] w0``, then ``+= (line[r + i - j] +
+    line[r + i + j]) w[j]`` for j = r .. 1, in this order (the same float)."""
+    radius = weights.shape[0] - 1
+    centre = radius + i
+    value = line[centre] * weights[0]
+    for j in range(radius, 0, -1):
+        value += (line[centre - j] + line[centre + j]) * weights[j]
+    return value
 
 
 #: Bound on the float32 error of a smoothed lag product, in units of ``G * |product|``:

@@ -553,7 +553,7 @@ class _Maps:
 
     def above_local_mean(self) -> np.ndarray:
         """``g > G_2 * g``: where the plane is above its local mean, at the wall pixels
-        (the rows of column tiles that hold walls; False on the others)."""
+        (False on the others: :func:`_wall_width` reads it at wall pixels only)."""
 
         def compute():
             positive = self._empty(bool)
