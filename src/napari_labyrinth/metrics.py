@@ -207,7 +207,7 @@ def _copy_in_bands(target: np.ndarray, source: np.ndarray, workers: int | None) 
 class _LastPlane:
     """A thread-safe cache of one value: the one computed for the last plane's content.
 
-    A plane matches when it equals the kept float64 plane, value for value
+    A plane matches when it equals the kept copy of a plane, value for value
     (NaN matching NaN): the metrics depend on nothing else. Comparing costs
     a read of both planes, less than hashing one.
     """
@@ -219,7 +219,7 @@ class _LastPlane:
     def get(self, key, array: np.ndarray, make: Callable[[np.ndarray], tuple[np.ndarray, Any]]):
         """The value kept for (``key``, ``array``'s content), or ``make(array)``'s.
 
-        ``make`` returns the float64 copy of ``array`` it keeps and the value.
+        ``make`` returns the copy of ``array`` it keeps (:func:`_kernel_plane`) and the value.
         """
         with self._lock:
             entry = self._entry
@@ -239,7 +239,7 @@ class _LastPlane:
 class _Pool:
     """Arrays of maps that are done, for the next maps of the same shape.
 
-    A fresh array costs its page faults: a first describe writes about 66
+    A fresh array costs its page faults: a first describe writes about 41
     bytes a pixel of new maps and plane copies, and a virtual machine may
     have to have its host back them first (``docs/metrics.md``). The passes
     of a stack, and the next original of the same shape, take the arrays of
@@ -330,7 +330,8 @@ _SHARED_POOL = _Pool()
 
 
 class _Maps:
-    """The maps of one float64 plane, each computed on first use, once (thread-safe).
+    """The maps of one plane (:func:`_kernel_plane`), each computed on first use, once
+    (thread-safe).
 
     ``plane`` must not change while the object is in use: callers pass a
     private copy or a plane that lives only for the call. With a ``pool``,
