@@ -51,14 +51,19 @@ the plane itself (``labyrinth(original, seed=0)``, the default preset)
 before the call, as a stack run does: memory freed just before changes
 what the first touches of new memory cost.
 
+``--bands`` prints, for one ``describe()`` per round in a fresh process per
+tree (round 1 a first call, the later rounds new originals), each threaded
+step's wall time beside the time its bands of rows took on the threads:
+``2 x wall - bands' time`` is what two cores left unused during the step.
+
 ``--release`` times the pool letting its arrays go (``_SHARED_POOL.clear()``,
 what its timer does 10 s after the last use) after a first call, in a fresh
 process per tree and round, and the longest gap a thread ticking every
 0.5 ms saw meanwhile (how long the GIL was held at once).
 
 Run: ``python benchmarks/bench_metrics.py [--against /path/to/main] [--sizes 512 2048 4096]
-[--rounds 3] [--stages] [--first-calls N] [--release]``. The reference takes about a minute
-per call at 4096 x 4096 on two cores.
+[--rounds 3] [--stages] [--bands] [--first-calls N] [--release]``. The reference takes
+about a minute per call at 4096 x 4096 on two cores.
 """
 
 from __future__ import annotations
@@ -369,6 +374,59 @@ def release(size: int) -> None:
     )
 
 
+def bands(size: int, rounds: int) -> None:
+    """Each threaded step (``metrics._in_bands``) of ``describe()`` at ``size``: its wall
+    time, the time its bands took on the threads, and what is left of two cores; printed.
+
+    Round 1 is a first call in a fresh process, the later rounds new originals (the
+    camera flipped) in the same process.
+    """
+    from napari_labyrinth import labyrinth, metrics
+
+    original = camera(size)
+    rendered = labyrinth(original, seed=0)
+    small = camera(64)
+    metrics.describe(small, labyrinth(small, seed=0))  # compile or load numba's cache
+    in_bands = metrics._in_bands
+    log = []
+
+    def traced(kernel, height, workers, *arguments):
+        spans = []
+
+        def timed_kernel(*a):
+            start = time.perf_counter()
+            result = kernel(*a)
+            spans.append(time.perf_counter() - start)
+            return result
+
+        start = time.perf_counter()
+        results = in_bands(timed_kernel, height, workers, *arguments)
+        log.append((kernel.__name__, time.perf_counter() - start, sum(spans), len(spans)))
+        return results
+
+    metrics._in_bands = traced
+    print(f"{size} x {size}, napari_labyrinth from {Path(metrics.__file__).parent}")
+    for round_number in range(rounds):
+        log.clear()
+        plane = original if round_number % 2 == 0 else original[::-1].copy()
+        start, cpu = time.perf_counter(), time.process_time()
+        metrics.describe(plane, rendered)
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+        threaded = sum(entry[1] for entry in log)
+        print(
+            f"  round {round_number + 1}: {wall * 1e3:.1f} ms wall, {cpu * 1e3:.1f} ms CPU"
+            f" [{cpu / wall:.2f}]; {threaded * 1e3:.1f} ms in threaded steps,"
+            f" {(wall - threaded) * 1e3:.1f} ms outside (load average {os.getloadavg()[0]:.2f})"
+        )
+        print("    step                       wall   bands' time   2 x wall - bands' time  bands")
+        for name, step_wall, busy, count in log:
+            print(
+                f"    {name:<24}{step_wall * 1e3:8.1f}{busy * 1e3:14.1f}"
+                f"{(2 * step_wall - busy) * 1e3:25.1f}{count:7d}"
+            )
+        metrics._ORIGINALS = metrics._LastPlane()
+
+
 def run_child(tree: Path, sizes) -> dict:
     environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
     command = [sys.executable, __file__, "--child", "--sizes", *map(str, sizes)]
@@ -405,6 +463,11 @@ def main(argv=None) -> None:
     parser.add_argument(
         "--release", action="store_true", help="the pool letting a first call's arrays go"
     )
+    parser.add_argument(
+        "--bands",
+        action="store_true",
+        help="each threaded step of describe(): wall time, the bands' time on the threads",
+    )
     parser.add_argument("--first-call", type=Path, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -415,6 +478,8 @@ def main(argv=None) -> None:
             release(args.sizes[0])
         elif args.stages:
             stages(args.sizes[0], args.rounds)
+        elif args.bands:
+            bands(args.sizes[0], args.rounds)
         else:
             child(args.sizes)
         return
@@ -429,6 +494,15 @@ def main(argv=None) -> None:
                 subprocess.run(command, env=environment, check=True)
         return
 
+    if args.bands:
+        print(f"the machine's load average {os.getloadavg()}, {os.cpu_count()} cores")
+        trees = [ROOT] if args.against is None else [args.against.resolve(), ROOT]
+        for tree in trees:
+            environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
+            command = [sys.executable, __file__, "--child", "--bands"]
+            command += ["--sizes", str(args.sizes[0]), "--rounds", str(args.rounds)]
+            subprocess.run(command, env=environment, check=True)
+        return
     if args.release:
         trees = [ROOT] if args.against is None else [args.against.resolve(), ROOT]
         for size in args.sizes:
