@@ -56,13 +56,18 @@ tree (round 1 a first call, the later rounds new originals), each threaded
 step's wall time beside the time its bands of rows took on the threads:
 ``2 x wall - bands' time`` is what two cores left unused during the step.
 
+``--passes`` times a stack's passes: ``--rounds`` calls of
+``comparison.describe(rendered)`` on one ``Comparison`` in a fresh process
+(``--repeats`` processes per tree, interleaved), with each call's user and
+system time and page faults.
+
 ``--release`` times the pool letting its arrays go (``_SHARED_POOL.clear()``,
 what its timer does 10 s after the last use) after a first call, in a fresh
 process per tree and round, and the longest gap a thread ticking every
 0.5 ms saw meanwhile (how long the GIL was held at once).
 
 Run: ``python benchmarks/bench_metrics.py [--against /path/to/main] [--sizes 512 2048 4096]
-[--rounds 3] [--stages] [--bands] [--first-calls N] [--release]``. The reference takes
+[--rounds 3] [--stages] [--bands] [--passes] [--first-calls N] [--release]``. The reference takes
 about a minute per call at 4096 x 4096 on two cores.
 """
 
@@ -427,6 +432,36 @@ def bands(size: int, rounds: int) -> None:
         metrics._ORIGINALS = metrics._LastPlane()
 
 
+def passes(size: int, rounds: int) -> None:
+    """A stack's passes: ``rounds`` calls of ``comparison.describe(rendered)`` on one
+    ``Comparison`` in a fresh process, each with its wall, user and system time and page
+    faults (the first is a first call; the pool serves the later ones); printed."""
+    import resource
+
+    from napari_labyrinth import labyrinth, metrics
+
+    original = camera(size)
+    rendered = labyrinth(original, seed=0)
+    small = camera(64)
+    metrics.describe(small, labyrinth(small, seed=0))  # compile or load numba's cache
+
+    def usage():
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return time.perf_counter(), r.ru_utime, r.ru_stime, r.ru_minflt
+
+    print(f"  {Path(metrics.__file__).parent} (load average {os.getloadavg()[0]:.2f})")
+    comparison = metrics.Comparison(original)
+    for number in range(rounds):
+        begin = usage()
+        comparison.describe(rendered)
+        end = usage()
+        wall, user, system, faults = (b - a for a, b in zip(begin, end))
+        print(
+            f"    pass {number + 1}: {wall * 1e3:6.1f} ms wall ({user * 1e3:5.0f} user"
+            f" + {system * 1e3:4.0f} system, {faults:6d} page faults)"
+        )
+
+
 def run_child(tree: Path, sizes) -> dict:
     environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
     command = [sys.executable, __file__, "--child", "--sizes", *map(str, sizes)]
@@ -438,6 +473,9 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[512, 2048, 4096])
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument(
+        "--repeats", type=int, default=3, help="with --passes: fresh processes per tree"
+    )
     parser.add_argument("--against", type=Path, default=None, help="a baseline checkout")
     parser.add_argument(
         "--reference-rounds",
@@ -468,6 +506,11 @@ def main(argv=None) -> None:
         action="store_true",
         help="each threaded step of describe(): wall time, the bands' time on the threads",
     )
+    parser.add_argument(
+        "--passes",
+        action="store_true",
+        help="a stack's passes (--rounds of them) on one Comparison, in a fresh process",
+    )
     parser.add_argument("--first-call", type=Path, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -480,6 +523,8 @@ def main(argv=None) -> None:
             stages(args.sizes[0], args.rounds)
         elif args.bands:
             bands(args.sizes[0], args.rounds)
+        elif args.passes:
+            passes(args.sizes[0], args.rounds)
         else:
             child(args.sizes)
         return
@@ -502,6 +547,16 @@ def main(argv=None) -> None:
             command = [sys.executable, __file__, "--child", "--bands"]
             command += ["--sizes", str(args.sizes[0]), "--rounds", str(args.rounds)]
             subprocess.run(command, env=environment, check=True)
+        return
+    if args.passes:
+        trees = [ROOT] if args.against is None else [args.against.resolve(), ROOT]
+        for repeat in range(args.repeats):
+            print(f"{args.sizes[0]} x {args.sizes[0]}, fresh processes ({repeat + 1})", flush=True)
+            for tree in trees if repeat % 2 == 0 else trees[::-1]:
+                environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
+                command = [sys.executable, __file__, "--child", "--passes"]
+                command += ["--sizes", str(args.sizes[0]), "--rounds", str(args.rounds)]
+                subprocess.run(command, env=environment, check=True)
         return
     if args.release:
         trees = [ROOT] if args.against is None else [args.against.resolve(), ROOT]
