@@ -9,11 +9,22 @@ Prints a Markdown table (the one in ``docs/metrics.md``) and the largest
 relative difference of every metric.
 
 Run: ``python benchmarks/metrics_changes.py`` (a few seconds).
+
+``--against TREE`` asks instead whether a change left every metric the same,
+bit for bit: this tree's and TREE's ``metrics.describe`` (each in its own
+process) on scikit-image's camera and five other images at ``--sizes``
+(default 512 and 2048), rendered with 1 and 3 passes as uint8, and once as
+uint16 and as float32; prints the cases whose values differ (about a
+minute).
 """
 
 from __future__ import annotations
 
+import argparse
+import json
 import math
+import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -65,5 +76,53 @@ def main() -> None:
         print(f"  {key:<24}{value:.1e}")
 
 
+def values(sizes) -> dict[str, list[str]]:
+    """Every metric (``repr``: every bit) of this process's ``napari_labyrinth`` on the cases
+    of ``--against``."""
+    from bench_metrics import camera, other_images
+
+    from napari_labyrinth import labyrinth, metrics
+
+    found = {}
+    for size in sizes:
+        for number, image in enumerate([camera(size), *other_images(size)]):
+            cases = {f"uint8, {p} passes": (image, p) for p in (1, 3)}
+            cases["uint16"] = (image.astype(np.uint16) * 257, 1)
+            cases["float32"] = (image.astype(np.float32) / 255, 1)
+            for label, (original, passes) in cases.items():
+                rendered = labyrinth(original, seed=0, passes=passes)
+                row = metrics.describe(original, rendered)
+                found[f"{size}^2 image {number} {label}"] = [repr(v) for v in row.values()]
+    return found
+
+
+def compare(tree: Path, sizes) -> None:
+    """Whether TREE and this tree give the same metrics, bit for bit; printed."""
+    results = {}
+    for name, source in (("TREE", tree), ("this", ROOT)):
+        environment = dict(os.environ, PYTHONPATH=str(source / "src"))
+        command = [sys.executable, __file__, "--child", "--sizes", *map(str, sizes)]
+        output = subprocess.run(
+            command, env=environment, capture_output=True, text=True, check=True
+        )
+        results[name] = json.loads(output.stdout.splitlines()[-1])
+    this, other = results["this"], results["TREE"]
+    differing = [case for case in this if this[case] != other[case]]
+    print(f"{len(results['this'])} cases, {tree} against {ROOT}: ", end="")
+    print("every metric the same, bit for bit" if not differing else f"{len(differing)} differ")
+    for case in differing:
+        print(f"  {case}: {results['TREE'][case]} -> {results['this'][case]}")
+
+
 if __name__ == "__main__":
-    main()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--against", type=Path, default=None, help="another checkout")
+    parser.add_argument("--sizes", type=int, nargs="+", default=[512, 2048])
+    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    arguments = parser.parse_args()
+    if arguments.child:
+        print(json.dumps(values(arguments.sizes)))
+    elif arguments.against is not None:
+        compare(arguments.against.resolve(), arguments.sizes)
+    else:
+        main()
