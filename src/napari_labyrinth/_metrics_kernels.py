@@ -4,7 +4,9 @@ Every kernel works on a band of output rows ``[y0, y1)`` of a 2-D plane, so
 that the caller can share a plane's rows between threads; every kernel
 releases the GIL and allocates its own buffers (no shared mutable state).
 Sums are made row by row (the caller adds the rows' sums), so that results
-do not depend on the bands.
+do not depend on the bands. A plane may be float64, uint8 or uint16: each
+value enters the arithmetic through an exact float64 operation (or a sum of
+two values in 64-bit integers), so the results do not depend on which.
 
 Precision, chosen by what each result feeds:
 
