@@ -231,7 +231,7 @@ def test_the_originals_contours_are_computed_where_walls_need_them_once(monkeypa
     calls = _count_calls(monkeypatch, "decimated_tensor_band")
     partial = maps.contours(sigma, walls)
     assert len(calls) == 1
-    needed = calls[0][3]  # (rows, tiles) computed
+    needed = calls[0][4]  # (rows, tiles) computed
     assert needed.sum() == 5 and needed[10:14, 0].all() and needed[70, 2]
     for part, whole in zip(partial, everywhere):
         np.testing.assert_array_equal(part[walls], whole[walls])
@@ -239,7 +239,7 @@ def test_the_originals_contours_are_computed_where_walls_need_them_once(monkeypa
     maps.contours(sigma, walls)
     assert len(calls) == 1
     maps.contours(sigma, np.ones_like(walls))  # the rest, once
-    assert len(calls) == 2 and calls[1][3].sum() == 3 * height - 5
+    assert len(calls) == 2 and calls[1][4].sum() == 3 * height - 5
     for part, whole in zip(maps.contours(sigma, walls), everywhere):
         np.testing.assert_array_equal(part, whole)
 
@@ -344,6 +344,15 @@ def test_maps_made_without_walls_give_the_same_walls_when_asked(cases, tone):
     np.testing.assert_array_equal(walls[1], expected[1])
 
 
+def _derived(components):
+    """The contours' coherent strength, cos and sin of twice the angle, from their tensor."""
+    from napari_labyrinth import _metrics_kernels
+
+    maps = [np.empty(components[0].size, dtype=np.float32) for _ in range(4)]
+    _metrics_kernels._derive(*(c.ravel() for c in components), *maps)
+    return [m.reshape(components[0].shape) for m in (maps[1], maps[1], maps[2], maps[3])]
+
+
 def test_the_decimated_contour_tensor_is_close_to_the_doubled_grids(monkeypatch):
     """The contours' window (1-2-1 on the doubled grid, then a Gaussian on the original
     grid) against the doubled grid's Gaussian of the same variance: the coherent strength
@@ -353,9 +362,9 @@ def test_the_decimated_contour_tensor_is_close_to_the_doubled_grids(monkeypatch)
     original = samples.camera()[100:356, 150:406].astype(float)
     everywhere = np.ones(original.shape, dtype=bool)
     sigma = metrics.CONTOUR_SIGMA
-    decimated = metrics._Maps(original.copy(), workers=1).contours(sigma, everywhere)
+    decimated = _derived(metrics._Maps(original.copy(), workers=1).contours(sigma, everywhere))
     monkeypatch.setattr(metrics, "_DECIMATED_SIGMA", math.inf)  # the doubled grid's
-    exact = metrics._Maps(original.copy(), workers=1).contours(sigma, everywhere)
+    exact = _derived(metrics._Maps(original.copy(), workers=1).contours(sigma, everywhere))
     largest = exact[0].max()
     assert np.abs(decimated[0] - exact[0]).max() < 1e-2 * largest
     assert np.abs(decimated[0] - exact[0]).max() > 1e-6 * largest  # not the same window
@@ -408,9 +417,9 @@ def test_the_decimated_tensor_of_a_ramp_is_the_doubled_grids(monkeypatch, angle)
     y, x = np.mgrid[:80, :90].astype(float)
     ramp = 100 + 3 * (np.cos(angle) * y + np.sin(angle) * x)
     everywhere = np.ones(ramp.shape, dtype=bool)
-    decimated = metrics._Maps(ramp.copy(), workers=1).contours(2.0, everywhere)
+    decimated = _derived(metrics._Maps(ramp.copy(), workers=1).contours(2.0, everywhere))
     monkeypatch.setattr(metrics, "_DECIMATED_SIGMA", math.inf)
-    exact = metrics._Maps(ramp.copy(), workers=1).contours(2.0, everywhere)
+    exact = _derived(metrics._Maps(ramp.copy(), workers=1).contours(2.0, everywhere))
     inside = (slice(20, -20), slice(20, -20))
     for d, e in zip(decimated, exact):
         np.testing.assert_allclose(d[inside], e[inside], rtol=1e-5, atol=1e-6)
@@ -557,8 +566,8 @@ def test_the_originals_contours_are_made_in_the_bytes_of_the_renderings_h(cases,
     fine = after._full_fine()
     values = dict(comparison._steps(after))
     contours = comparison._maps._values[("contours", metrics.CONTOUR_SIGMA)][0]
-    assert contours[1] is fine.fine32
-    assert np.shares_memory(contours[2], fine.fine) and np.shares_memory(contours[3], fine.fine)
+    assert contours[0] is fine.fine32
+    assert np.shares_memory(contours[1], fine.fine) and np.shares_memory(contours[2], fine.fine)
     assert values["contour_alignment"] == metrics.contour_alignment(original, rendered)
     assert values == metrics.Comparison(original, workers=2).describe(rendered)
     pool._timer.cancel()

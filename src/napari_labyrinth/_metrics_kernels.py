@@ -1226,25 +1226,32 @@ def _copy(source, target):
 def _derive(rr, rc, cc, strength, coherent, cosine, sine):
     """Strength ``l1 + l2``, coherence times strength, cos and sin of twice the angle."""
     for x in range(strength.shape[0]):
-        jrr = np.float64(rr[x])
-        jrc = np.float64(rc[x])
-        jcc = np.float64(cc[x])
-        trace = jrr + jcc
-        along = jrr - jcc
-        across = 2.0 * jrc
-        difference = np.sqrt(along * along + across * across)
-        coherence = 0.0
-        if trace > 0:
-            coherence = (difference / max(trace, 1e-12)) ** 2
-        c = 1.0
-        s = 0.0
-        if difference > 0:
-            c = along / difference
-            s = across / difference
+        trace, weight, c, s = _derived(rr[x], rc[x], cc[x])
         strength[x] = trace
-        coherent[x] = coherence * trace
+        coherent[x] = weight
         cosine[x] = c
         sine[x] = s
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _derived(rr, rc, cc):
+    """:func:`_derive` at one pixel, in float64 (stored in float32 by the callers)."""
+    jrr = np.float64(rr)
+    jrc = np.float64(rc)
+    jcc = np.float64(cc)
+    trace = jrr + jcc
+    along = jrr - jcc
+    across = 2.0 * jrc
+    difference = np.sqrt(along * along + across * across)
+    coherence = 0.0
+    if trace > 0:
+        coherence = (difference / max(trace, 1e-12)) ** 2
+    c = 1.0
+    s = 0.0
+    if difference > 0:
+        c = along / difference
+        s = across / difference
+    return trace, coherence * trace, c, s
 
 
 @njit(cache=True, nogil=True)
@@ -1396,7 +1403,22 @@ def _add_doubled(
 
 @njit(cache=True, nogil=True)
 def _decimated_tile(
-    plane, scale, weights, needed, starts, mask, tile_index, x0, x1, y0, y1, out0, out1, out2, out3
+    plane,
+    scale,
+    weights,
+    mode,
+    needed,
+    starts,
+    mask,
+    tile_index,
+    x0,
+    x1,
+    y0,
+    y1,
+    out0,
+    out1,
+    out2,
+    out3,
 ):
     """:func:`decimated_tensor_band` on the output columns ``[x0, x1)`` (tile ``tile_index``)."""
     height = plane.shape[0]
@@ -1503,7 +1525,11 @@ def _decimated_tile(
             upper[j] = r % ring_rows if r <= height else zero_slot
         for c in range(3):
             _gauss_rows(ring[c], lower, upper, y % ring_rows, weights, tensor[c])
-        if starts.shape[0] == 0:
+        if mode == TENSOR_COMPONENTS:
+            _copy(tensor[0], out0[y, x0:x1])
+            _copy(tensor[1], out1[y, x0:x1])
+            _copy(tensor[2], out2[y, x0:x1])
+        elif starts.shape[0] == 0:
             _derive(
                 tensor[0],
                 tensor[1],
@@ -1529,9 +1555,9 @@ def _decimated_tile(
 
 @njit(cache=True, nogil=True)
 def decimated_tensor_band(
-    plane, scale, weights, needed, starts, mask, out0, out1, out2, out3, y0, y1
+    plane, scale, weights, mode, needed, starts, mask, out0, out1, out2, out3, y0, y1
 ):
-    """The contours' structure tensor (``TENSOR_DERIVED`` maps) on rows ``[y0, y1)``, decimated.
+    """The contours' structure tensor on rows ``[y0, y1)``, decimated.
 
     The Sobel products of ``zoom(plane, 2)`` (as :func:`orientation_band`
     computes them, zero outside the plane) are filtered with the 1-2-1
@@ -1542,10 +1568,10 @@ def decimated_tensor_band(
     those of :func:`decimated_sigma`; the kernels differ by a few per cent
     of a weight (about 1 % at sigma 4, 3 % at sigma 2: the doubled grid's
     Gaussian linearly interpolated between its even taps), and the
-    Gaussian has half the taps, on a quarter of the pixels. ``needed`` and
-    the outputs as in :func:`orientation_band` (``TENSOR_DERIVED``).
+    Gaussian has half the taps, on a quarter of the pixels. ``mode``,
+    ``needed`` and the outputs as in :func:`orientation_band`.
 
-    With ``starts`` of shape ``needed.shape`` (not empty), the maps are
+    With ``starts`` of shape ``needed.shape`` (not empty; ``TENSOR_DERIVED``), the maps are
     written at the True pixels of ``mask`` only, one after the other in
     row-major order: the outputs are single rows, and the pixels of row y
     in tile k begin at index ``starts[y, k]`` (see :func:`mask_starts`).
@@ -1556,8 +1582,9 @@ def decimated_tensor_band(
         x0 = (k * width) // count
         x1 = ((k + 1) * width) // count
         _decimated_tile(
-            plane, scale, weights, needed, starts, mask, k, x0, x1, y0, y1, out0, out1, out2, out3
-        )
+            plane, scale, weights, mode, needed, starts, mask, k, x0, x1, y0, y1,
+            out0, out1, out2, out3,
+        )  # fmt: skip
 
 
 def tensor_tiles(width: int, radius: int) -> int:
@@ -1762,9 +1789,9 @@ def alignment_sums(
     wall_coherent,
     wall_cos,
     wall_sin,
-    contour_coherent,
-    contour_cos,
-    contour_sin,
+    contour_rr,
+    contour_rc,
+    contour_cc,
     sums,
     y0,
     y1,
@@ -1773,8 +1800,10 @@ def alignment_sums(
     walls of row y, weight = wall coherence * strength * contour coherence * strength.
 
     The walls' maps are held at the wall pixels only (as in
-    :func:`wall_weighted_sums`, row y's from index ``row_starts[y]``), the
-    contours' are planes. ``cos**2(a - b) = (1 + cos 2a cos 2b + sin 2a sin 2b) / 2``.
+    :func:`wall_weighted_sums`, row y's from index ``row_starts[y]``); the
+    contours' tensor components are planes, derived at the walls here as
+    :func:`_derive` derives them (float32 results: the same numbers as from
+    its maps). ``cos**2(a - b) = (1 + cos 2a cos 2b + sin 2a sin 2b) / 2``.
     """
     width = walls.shape[1]
     for y in range(y0, y1):
@@ -1783,11 +1812,11 @@ def alignment_sums(
         i = row_starts[y]
         for x in range(width):
             if walls[y, x]:
-                weight = np.float64(wall_coherent[i]) * np.float64(contour_coherent[y, x])
-                cosine = (
-                    np.float64(wall_cos[i]) * contour_cos[y, x]
-                    + np.float64(wall_sin[i]) * contour_sin[y, x]
-                )
+                _, coherent, c, s = _derived(contour_rr[y, x], contour_rc[y, x], contour_cc[y, x])
+                weight = np.float64(wall_coherent[i]) * np.float64(np.float32(coherent))
+                cosine = np.float64(wall_cos[i]) * np.float64(np.float32(c)) + np.float64(
+                    wall_sin[i]
+                ) * np.float64(np.float32(s))
                 numerator += 0.5 * (1.0 + cosine) * weight
                 denominator += weight
                 i += 1

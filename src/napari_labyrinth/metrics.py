@@ -585,10 +585,13 @@ class _Maps:
         return self._get("wall_orientation", compute)
 
     def contours(self, sigma: float, walls: np.ndarray) -> tuple[np.ndarray, ...]:
-        """The same for the plane itself at ``sigma``: its contours, on ``walls`` (at least).
+        """The structure tensor's components ``jrr, jrc, jcc`` of the plane itself at
+        ``sigma`` (its contours), on ``walls`` (at least).
 
-        The strength is not kept (no metric reads it): the first map is the
-        second, coherence times strength.
+        The components are kept, not the maps derived from them
+        (``_metrics_kernels._derive``): the one metric that reads the
+        contours reads them at the walls of a rendering (a few per cent of
+        the pixels) and derives them there, the same float32 numbers.
 
         The maps are computed row by row of column tiles, the rows and tiles
         that hold a pixel of ``walls`` and were not computed for earlier
@@ -598,9 +601,7 @@ class _Maps:
         with self._lock:
             key = ("contours", float(sigma))
             if key not in self._values:
-                coherent = self._empty(np.float32)
-                # the kernel writes each pixel's strength, then coherence * strength over it
-                maps = (coherent, coherent, *self._float32_pair())
+                maps = (self._empty(np.float32), *self._float32_pair())
                 tiles = _tensor_tiles(self.plane.shape[1], sigma)
                 self._values[key] = (maps, np.zeros((self.plane.shape[0], tiles), dtype=bool))
             maps, done = self._values[key]
@@ -608,7 +609,7 @@ class _Maps:
             needed &= ~done
             if needed.any():
                 scale = _float32_scale(self._fine().largest_tone)
-                _derived_tensor(self.plane, scale, sigma, self.workers, needed, maps)
+                _tensor(self.plane, scale, sigma, self.workers, needed, maps, components=True)
                 done |= needed
             return maps
 
@@ -719,10 +720,10 @@ def _wall_orientation(plane, scale, sigma, workers, walls):
     row_starts = np.append(starts[:, 0], starts[-1, -1] + counts[-1, -1])
     outputs = tuple(np.empty((1, int(row_starts[-1])), dtype=np.float32) for _ in range(4))
     if _decimated(sigma):
-        _derived_tensor(plane, scale, sigma, workers, counts > 0, outputs, starts, walls)
+        _tensor(plane, scale, sigma, workers, counts > 0, outputs, starts, walls)
         return (row_starts, *(output[0] for output in outputs))
     planes = tuple(np.empty(plane.shape, dtype=np.float32) for _ in range(4))
-    _derived_tensor(plane, scale, sigma, workers, counts > 0, planes)
+    _tensor(plane, scale, sigma, workers, counts > 0, planes)
     return (row_starts, *(map_[walls] for map_ in planes))
 
 
@@ -743,9 +744,12 @@ def _tensor_tiles(width: int, sigma: float) -> int:
     return _kernels().tensor_tiles(width, _tensor_weights(sigma).shape[0] - 1)
 
 
-def _derived_tensor(plane, scale, sigma, workers, needed, outputs, starts=None, mask=None):
+def _tensor(
+    plane, scale, sigma, workers, needed, outputs, starts=None, mask=None, *, components=False
+):
     """The derived maps (``TENSOR_DERIVED``) of the structure tensor of ``plane * scale`` at
-    ``sigma`` into ``outputs``, on the rows of column tiles ``needed``.
+    ``sigma`` into ``outputs``, on the rows of column tiles ``needed``; with ``components``,
+    its components (``TENSOR_COMPONENTS``: three outputs).
 
     From ``sigma = _DECIMATED_SIGMA`` on, the decimated tensor
     (``_metrics_kernels.decimated_tensor_band``; with ``starts``, at the
@@ -753,10 +757,12 @@ def _derived_tensor(plane, scale, sigma, workers, needed, outputs, starts=None, 
     grid's (:func:`orientation`'s).
     """
     kernels = _kernels()
+    mode = kernels.TENSOR_COMPONENTS if components else kernels.TENSOR_DERIVED
+    if components:
+        outputs = (*outputs, np.empty((1, 1), dtype=np.float32))  # not written
     if not _decimated(sigma):
-        return _orientation_maps(
-            plane, scale, sigma, kernels.TENSOR_DERIVED, workers, needed, outputs
-        )
+        outputs = _orientation_maps(plane, scale, sigma, mode, workers, needed, outputs)
+        return outputs[:3] if components else outputs
     weights = _tensor_weights(sigma)
     if starts is None:
         starts = np.empty((0, 0), dtype=np.int64)
@@ -768,12 +774,13 @@ def _derived_tensor(plane, scale, sigma, workers, needed, outputs, starts=None, 
         plane,
         scale,
         weights,
+        mode,
         needed,
         starts,
         mask,
         *outputs,
     )
-    return outputs
+    return outputs[:3] if components else outputs
 
 
 # --- the maps of renderings, shared between the single metrics ---------------------------
@@ -962,7 +969,7 @@ def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTO
         return math.nan  # NaN or infinity in either image: the weighted sum is NaN
     walls, _, _ = after.walls()
     row_starts, _, wall_coherent, wall_cos, wall_sin = after.wall_orientation()
-    _, contour_coherent, contour_cos, contour_sin = before.contours(contour_sigma, walls)
+    contour_rr, contour_rc, contour_cc = before.contours(contour_sigma, walls)
     sums = after._row_sums(2)
     after._bands(
         _kernels().alignment_sums,
@@ -971,9 +978,9 @@ def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTO
         wall_coherent,
         wall_cos,
         wall_sin,
-        contour_coherent,
-        contour_cos,
-        contour_sin,
+        contour_rr,
+        contour_rc,
+        contour_cc,
         sums,
     )
     numerator = math.fsum(sums[:, 0])
