@@ -203,5 +203,6 @@ def test_a_run_renders_at_a_lower_priority_than_the_main_thread(qtbot, viewer, w
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
     main = os.getpriority(os.PRIO_PROCESS, threading.main_thread().native_id)
     assert THREAD_NAME in seen, seen
-    assert set(seen.values()) == {min(19, main + NICENESS)}, seen
+    assert main < 19  # else no priority could be lower
+    assert set(seen.values()) == {min(19, main + NICENESS)} and NICENESS > 0, seen
     assert viewer.layers[-1].name.startswith("movie · labyrinth")
