@@ -1,8 +1,7 @@
 """The widget in a real viewer: preview latency, stack time, cancel time, event-loop gaps.
 
 Run under Xvfb: ``xvfb-run -a python benchmarks/bench_widget.py`` (``make bench-widget``);
-``--parts preview,single,stack,planes,insert`` chooses the parts (all but ``insert`` by
-default). Prints figures; asserts
+``--parts preview,single,stack,planes`` chooses the parts. Prints figures; asserts
 nothing; the machine's load is printed before and after. Parts:
 
 - ``preview``: from a change of V to the updated preview layer, 1024² and 2048²;
@@ -14,20 +13,14 @@ nothing; the machine's load is printed before and after. Parts:
   before in one turn, the selection deferred); and, for comparison, napari alone
   adding a layer of the same size (no plugin);
 - ``stack``: 4 passes with metrics, 2048²; the time to cancel;
-- ``insert``: where the main thread's time goes when napari inserts a new 2048² result
-  layer (the longest step of showing a new layer), from a profile of each insert;
-- ``planes``: a 20-plane 2048² movie, 4 passes (the first run adds the layer), the
-  widget as shipped interleaved run by run with two variants (``PLANES_VARIANTS``):
-  without its hold on Python's full garbage collections, and with the run's threads at
-  the GUI's priority (not lowered).
+- ``planes``: a 20-plane 2048² movie, 4 passes (the first run adds the layer),
+  interleaved with and without the widget's hold on Python's full garbage collections.
 
 Each run is watched by a 20 ms QTimer: the longest gap between its ticks while the
 worker renders, and from the last step to 0.5 s after the end (the layer added or
 updated, then drawn), with the longest single draw of the canvas by vispy in that time
-and Python's full garbage collections; and each repaint of the widget's progress bar
-(``setValue`` repaints at once: the whole window, through OpenGL). Under a run's row, each
-stall over 100 ms is listed with what the main thread was seen running in it (sampled
-every 10 ms).
+and Python's full garbage collections. Under a run's row, each stall over 100 ms is
+listed with what the main thread was seen running in it (sampled every 10 ms).
 Under Xvfb every repaint of the window goes through software OpenGL.
 """
 
@@ -105,11 +98,8 @@ class GapMeter:
 
     With ``explain``, a thread looks every 10 ms and, while the loop has not ticked for
     over 60 ms, notes what the main thread is running (its innermost frames):
-    :attr:`stalls` then holds, for each gap over 100 ms, its start, length, the frames
-    seen (none seen: the main thread waited for the GIL, or for the CPU) and, where
-    Linux tells it (``/proc/<pid>/task/<tid>/schedstat``), how the main thread spent
-    the gap: seconds running, waiting for a CPU, and neither (blocked: on the GIL, or
-    on the X server or the OpenGL driver's threads in a repaint).
+    :attr:`stalls` then holds, for each gap over 100 ms, its start, length and the frames
+    seen (none seen: the main thread waited for the GIL, or for the CPU).
     """
 
     #: A gap longer than this is a stall.
@@ -124,34 +114,18 @@ class GapMeter:
         self.last = 0.0
         self.longest = 0.0
         self.explain = explain
-        self.stalls: list[tuple[float, float, list[str], tuple[float, float] | None]] = []
+        self.stalls: list[tuple[float, float, list[str]]] = []
         self._samples: list[tuple[float, str]] = []
         self._on = False
-        self._schedstat = f"/proc/{os.getpid()}/task/{threading.main_thread().native_id}/schedstat"
-        self._scheduled: tuple[float, float] | None = None
-
-    def _main_thread_scheduled(self) -> tuple[float, float] | None:
-        """The main thread's seconds on a CPU and waiting for one, so far (Linux)."""
-        try:
-            with open(self._schedstat, encoding="ascii") as schedstat:
-                running, waiting = schedstat.read().split()[:2]
-        except (OSError, ValueError):
-            return None
-        return int(running) / 1e9, int(waiting) / 1e9
 
     def _tick(self) -> None:
         now = time.perf_counter()
-        scheduled = self._main_thread_scheduled()
         if self.last:
             self.longest = max(self.longest, now - self.last)
             if now - self.last > self.STALL:
                 seen = [f for t, f in self._samples if self.last <= t <= now]
-                spent = None
-                if scheduled is not None and self._scheduled is not None:
-                    spent = (scheduled[0] - self._scheduled[0], scheduled[1] - self._scheduled[1])
-                self.stalls.append((self.last, now - self.last, list(dict.fromkeys(seen)), spent))
+                self.stalls.append((self.last, now - self.last, list(dict.fromkeys(seen))))
         self.last = now
-        self._scheduled = scheduled
 
     def _sample(self) -> None:
         import traceback
@@ -172,7 +146,7 @@ class GapMeter:
 
     def __enter__(self):
         self.last, self.longest = 0.0, 0.0
-        self.stalls, self._samples, self._scheduled = [], [], None
+        self.stalls, self._samples = [], []
         self.timer.start()
         if self.explain:
             self._on = True
@@ -264,20 +238,9 @@ def _timed_run(widget) -> dict[str, float]:
       layer added or updated, then drawn (the texture upload, in software under Xvfb);
     - ``drawing``: the longest single draw of the canvas by vispy in that time;
     - ``collections``: Python's full garbage collections over the whole run and the
-      0.5 s after (:class:`CollectionMeter`'s summary);
-    - ``repaints``: each repaint of the progress bar, (wall, main thread's CPU) seconds.
+      0.5 s after (:class:`CollectionMeter`'s summary).
     """
     from napari_labyrinth._qt import widget as module
-
-    repaints: list[tuple[float, float]] = []
-    bar = widget.progress_bar
-
-    def timed_set_value(value: int) -> None:
-        before = bar.value()
-        wall, cpu = time.perf_counter(), time.thread_time()
-        type(bar).setValue(bar, value)
-        if bar.value() != before:
-            repaints.append((time.perf_counter() - wall, time.thread_time() - cpu))
 
     worker = widget.run(start=False)
     total_steps = widget.progress_bar.maximum()
@@ -314,7 +277,6 @@ def _timed_run(widget) -> dict[str, float]:
 
     worker.yielded.connect(on_step)
     module.show_result = timed_show
-    bar.setValue = timed_set_value
     started = time.perf_counter()
     try:
         with gap, collections:
@@ -324,7 +286,6 @@ def _timed_run(widget) -> dict[str, float]:
             _events(0.5)
     finally:
         module.show_result = show_result
-        del bar.setValue
         draw.__exit__()
     rendered = marks.get("rendered", finished)
     return {
@@ -337,8 +298,7 @@ def _timed_run(widget) -> dict[str, float]:
         "gap_showing": gap.longest,
         "drawing": draw.longest,
         "collections": collections.summary(),
-        "stalls": [(at - started, *rest) for at, *rest in gap.stalls],
-        "repaints": repaints,
+        "stalls": [(at - started, length, seen) for at, length, seen in gap.stalls],
     }
 
 
@@ -365,48 +325,21 @@ def bench_stack(viewer, widget, size: int, repeats: int) -> tuple[list[dict], fl
     return runs, min(cancels)
 
 
-#: The variants of the widget that ``bench_planes`` interleaves with it.
-PLANES_VARIANTS = {
-    "as shipped": "no full garbage collection starts by itself during a run; the run's "
-    "threads at a lower priority than the GUI's (nice +NICENESS, Linux)",
-    "full garbage collections not held": "the hold on full collections taken out",
-    "run's threads at the GUI's priority": "the run's thread's priority not lowered",
-}
-
-
 def bench_planes(viewer, widget, size: int, planes: int, repeats: int) -> dict[str, list]:
-    """Runs of a ``planes``-plane movie, 4 passes: the first adds the layer (left out),
-    the next replace it (the widget's "replace last", on by default), the variants of
-    :data:`PLANES_VARIANTS` interleaved run by run."""
+    """Runs of a ``planes``-plane movie, 4 passes: the first adds the layer, the next
+    replace it (the widget's "replace last", on by default). Interleaved, runs with the
+    widget as it is ("held": no full garbage collection starts by itself during a run)
+    and with that hold taken out ("not held")."""
     _clear(viewer)
     viewer.add_image(image(size, planes), name="movie")
     widget.mode.value = "single"
     widget.fields["passes"].value = 4
-    _timed_run(widget)  # adds the layer
-    variants = {
-        "as shipped": contextlib.nullcontext,
-        "full garbage collections not held": _collections_not_held,
-        "run's threads at the GUI's priority": _priority_not_lowered,
-    }
-    runs: dict[str, list] = {variant: [] for variant in PLANES_VARIANTS}
+    runs: dict[str, list] = {"held": [], "not held": []}
     for _ in range(repeats):
-        for variant in PLANES_VARIANTS:
-            with variants[variant]():
-                runs[variant].append(_timed_run(widget))
+        runs["held"].append(_timed_run(widget))
+        with _collections_not_held():
+            runs["not held"].append(_timed_run(widget))
     return runs
-
-
-@contextlib.contextmanager
-def _priority_not_lowered():
-    """The widget's runs with their thread at the priority of the GUI's threads."""
-    from napari_labyrinth._qt import background
-
-    lower = background.lower_priority
-    background.lower_priority = lambda niceness=0: False
-    try:
-        yield
-    finally:
-        background.lower_priority = lower
 
 
 @contextlib.contextmanager
@@ -536,74 +469,6 @@ def bench_bare_add(viewer, size: int, repeats: int) -> list[dict]:
     return runs[1:]  # the first is a warm-up
 
 
-#: Parts of napari's insert of an image layer that ``bench_insert`` times: (what, the file
-#: and function whose cumulative time it is). They may nest (the selection shows the controls).
-INSERT_PARTS = (
-    ("the whole insert (LayerList.insert)", "napari/components/layerlist.py", "insert"),
-    ("vispy visual of the layer", "napari/_qt/qt_viewer.py", "_add_layer"),
-    ("layer controls built", "layer_controls/qt_layer_controls_container.py", "_add"),
-    ("  of which the colormap control", "widgets/qt_colormap_control.py", "__init__"),
-    ("selection of the new layer", "events/containers/_selection.py", "active"),
-    ("  of which its controls shown", "qt_layer_controls_container.py", "_populate"),
-    ("event connections (inspect.signature)", "napari/utils/events/event.py", "connect"),
-)
-
-
-def bench_insert(viewer, size: int, repeats: int) -> list[dict[str, float]]:
-    """Profiles of ``repeats`` inserts of a new hidden ``size``² uint16 layer (after one
-    warm-up), as ``show_result`` inserts a result: seconds per part of ``INSERT_PARTS``
-    (cumulative, under the profiler, which slows Python code), and the insert unprofiled."""
-    import cProfile
-    import pstats
-
-    from napari.layers import Image
-
-    _clear(viewer)
-    viewer.add_image(image(size), name=f"{size}")
-    _events(0.5)
-    profiles = []
-    for k in range(repeats + 1):
-        layer = Image(image(size), visible=False, name=f"new {k}", contrast_limits=(0, 65535))
-        profiler = cProfile.Profile()
-        profiler.enable()
-        viewer.layers.insert(len(viewer.layers), layer)
-        profiler.disable()
-        _events(0.3)
-        viewer.layers.remove(layer)
-        _events(0.3)
-        layer = Image(image(size), visible=False, name=f"bare {k}", contrast_limits=(0, 65535))
-        started = time.perf_counter()
-        viewer.layers.insert(len(viewer.layers), layer)
-        bare = time.perf_counter() - started
-        _events(0.3)
-        viewer.layers.remove(layer)
-        _events(0.3)
-        if not k:
-            continue  # the first is a warm-up
-        stats = pstats.Stats(profiler).stats
-        parts = {"unprofiled": bare}
-        for what, where, function in INSERT_PARTS:
-            parts[what] = sum(
-                cumulative
-                for (filename, _, name), (_, _, _, cumulative, _) in stats.items()
-                if name == function and filename.replace(os.sep, "/").endswith(where)
-            )
-        profiles.append(parts)
-    return profiles
-
-
-def _insert_part(viewer, args) -> None:
-    print("\nnapari inserts a new hidden 2048² uint16 layer (as show_result's step 'inserted'):")
-    print("milliseconds of the main thread in each part (cumulative, under cProfile; parts nest)")
-    profiles = bench_insert(viewer, 2048, args.repeats)
-    print("  " + " ".join(f"{k + 1:>6}" for k in range(len(profiles))) + "   part")
-    for what in ["unprofiled"] + [what for what, _, _ in INSERT_PARTS]:
-        row = " ".join(f"{1000 * p[what]:6.1f}" for p in profiles)
-        label = "the whole insert, without the profiler" if what == "unprofiled" else what
-        print(f"  {row}   {label}")
-    print(f"  (load average now: {os.getloadavg()[0]:.2f})")
-
-
 def _print_runs(runs: list[dict]) -> None:
     """One line per run (milliseconds but the total), its steps, its stalls."""
     print(
@@ -622,26 +487,11 @@ def _print_runs(runs: list[dict]) -> None:
             f"   {r['collections']}"
         )
         print(f"        steps (ms, one turn of the event loop each): {r['steps']}")
-        if r.get("repaints"):
-            walls = sorted(1000 * wall for wall, _ in r["repaints"])
-            cpus = sorted(1000 * cpu for _, cpu in r["repaints"])
-            print(
-                f"        progress bar repaints: {len(walls)}, wall median"
-                f" {walls[len(walls) // 2]:.0f} ms, longest {walls[-1]:.0f} ms (main thread's"
-                f" CPU: median {cpus[len(cpus) // 2]:.0f} ms, the rest waiting)"
-            )
-        for at, length, seen, spent in r.get("stalls", []):
+        for at, length, seen in r.get("stalls", []):
             where = "; ".join(seen) if seen else "nothing seen (waiting for the GIL or the CPU)"
             print(
                 f"        stall of {1000 * length:.0f} ms at {at:+.2f} s: main thread in {where}"
             )
-            if spent is not None:
-                running, waiting = spent
-                print(
-                    f"          main thread: running {1000 * running:.0f} ms, waiting for a CPU"
-                    f" {1000 * waiting:.0f} ms, blocked {1000 * (length - running - waiting):.0f}"
-                    " ms (the GIL, or a repaint's X server / OpenGL driver threads)"
-                )
 
 
 def _print_summary(label: str, runs: list[dict]) -> None:
@@ -664,22 +514,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--planes", type=int, default=20, help="planes of the movie (2048²)")
     parser.add_argument(
-        "--parts",
-        default="preview,single,stack,planes",
-        help="comma-separated parts to run: preview, single, stack, planes, insert",
+        "--parts", default="preview,single,stack,planes", help="comma-separated parts to run"
     )
     parser.add_argument("--sizes", default="1024,2048", help="preview sizes")
-    parser.add_argument(
-        "--niceness",
-        type=int,
-        default=None,
-        help="priority of a run's threads below the GUI's, instead of the shipped one",
-    )
     args = parser.parse_args(argv)
-    if args.niceness is not None:
-        from napari_labyrinth._qt import background
-
-        background.NICENESS = args.niceness
 
     scratch = tempfile.mkdtemp(prefix="napari-labyrinth-bench-")
     os.environ.setdefault("XDG_CONFIG_HOME", os.path.join(scratch, "config"))
@@ -699,9 +537,6 @@ def main(argv: list[str] | None = None) -> int:
     if "planes" in parts:
         with _viewer() as (viewer, widget):
             _planes_part(viewer, widget, args)
-    if "insert" in parts:
-        with _viewer() as (viewer, _widget):
-            _insert_part(viewer, args)
     print(f"\nload average after: {os.getloadavg()[0]:.2f}")
     return 0
 
@@ -738,40 +573,11 @@ def _stack_part(viewer, widget, args) -> None:
 
 
 def _planes_part(viewer, widget, args) -> None:
-    from napari_labyrinth._qt.background import NICENESS
-
-    print(f"\nsingle mode, {args.planes} planes of 2048², 4 passes; a first run adds the layer")
-    print("(not shown), each run after it updates it in place (replace last on); interleaved")
-    print("run by run:")
-    for variant, what in PLANES_VARIANTS.items():
-        print(f"  - {variant}: {what.replace('NICENESS', str(NICENESS))}")
-    variants = bench_planes(viewer, widget, 2048, args.planes, args.repeats)
-    for variant, runs in variants.items():
-        print(f"\n{variant}:")
+    print(f"\nsingle mode, {args.planes} planes of 2048², 4 passes (run 1 adds the layer,")
+    print("the next runs update it in place: replace last on)")
+    for variant, runs in bench_planes(viewer, widget, 2048, args.planes, args.repeats).items():
+        print(f"full garbage collections {variant} during a run:")
         _print_runs(runs)
-    print()
-    for variant, runs in variants.items():
-        _print_planes_summary(variant, runs)
-    print(f"  (load average now: {os.getloadavg()[0]:.2f})")
-
-
-def _print_planes_summary(label: str, runs: list[dict]) -> None:
-    """The longest gaps while rendering, how many over 100 ms, and the progress bar's repaints."""
-    gaps = sorted(1000 * r["gap_rendering"] for r in runs)
-    over = sum(gap > 1000 * GapMeter.STALL for gap in gaps)
-    walls = sorted(1000 * wall for r in runs for wall, _ in r["repaints"])
-    repaints = (
-        f"; progress bar repaints: median {walls[len(walls) // 2]:.0f} ms,"
-        f" 9 in 10 under {walls[int(0.9 * (len(walls) - 1))]:.0f} ms, longest {walls[-1]:.0f} ms"
-        if walls
-        else ""
-    )
-    print(
-        f"  {label}: longest gap while rendering: best {gaps[0]:.0f} ms, median"
-        f" {gaps[len(gaps) // 2]:.0f} ms, worst {gaps[-1]:.0f} ms; {over} of {len(gaps)} runs"
-        f" over {1000 * GapMeter.STALL:.0f} ms; best total"
-        f" {min(r['total'] for r in runs):.2f} s{repaints}"
-    )
 
 
 def _single_part(viewer, widget, args) -> None:

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
-import os
-import sys
 import threading
 
 import numpy as np
@@ -180,29 +177,3 @@ def test_agrees_tells_which_layer_attributes_an_update_must_set():
     assert agrees(("y", "x"), ["y", "x"]) and not agrees(("y", "x"), ("x", "y"))
     assert agrees("translucent", "translucent") and not agrees(1.0, 0.5)
     assert not agrees({"a": 1}, {"a": 1})  # metadata is set, never compared
-
-
-@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="a priority per thread: Linux")
-def test_a_run_renders_at_a_lower_priority_than_the_main_thread(qtbot, viewer, widget):
-    """The repaints of the window wait for the CPU less (see ``_qt/background.py``)."""
-    from napari_labyrinth._qt.background import NICENESS, THREAD_NAME
-
-    viewer.add_image(noise((4, 512, 512)), name="movie")
-    widget.fields["passes"].value = 2
-    worker = widget.run(start=False)
-    seen = {}
-
-    def on_yield(_):
-        for thread in threading.enumerate():
-            if thread.name.startswith("napari-labyrinth") and thread.native_id is not None:
-                with contextlib.suppress(OSError):  # the thread may have ended meanwhile
-                    seen[thread.name] = os.getpriority(os.PRIO_PROCESS, thread.native_id)
-
-    worker.yielded.connect(on_yield)
-    worker.start()
-    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
-    main = os.getpriority(os.PRIO_PROCESS, threading.main_thread().native_id)
-    assert THREAD_NAME in seen, seen
-    assert main < 19  # else no priority could be lower
-    assert set(seen.values()) == {min(19, main + NICENESS)} and NICENESS > 0, seen
-    assert viewer.layers[-1].name.startswith("movie · labyrinth")

@@ -1,11 +1,9 @@
 """A run in a napari thread worker: progress bar, cancel, and the layer it adds.
 
-The worker drives :func:`napari_labyrinth.run.render`, a generator, in a
-thread of its own at a lower priority than the GUI's (:mod:`.background`):
-napari draws a determinate progress bar from its yields. A cancel (the
-widget's button, or napari's activity panel) stops the run at the next pass,
-and the run is closed in its thread, which stops the rendering threads
-behind it; the main thread does not wait for it.
+The worker drives :func:`napari_labyrinth.run.render`, a generator: napari
+draws a determinate progress bar from its yields. A cancel (the widget's
+button, or napari's activity panel) stops the run at the next pass, and the
+run is closed at once, which stops the rendering threads behind it.
 """
 
 from __future__ import annotations
@@ -20,25 +18,25 @@ from napari.viewer import Viewer
 
 from ..plan import RenderPlan
 from ..run import Outcome, render, result_layer
-from .background import StepsInThread
 
 #: Title of a run's progress bar in napari's activity panel.
 PROGRESS_TITLE = "Labyrinthine tiling"
 
 
-def render_worker(plan: RenderPlan, progress: bool = True):
-    """An unstarted napari worker that runs ``plan``; ``progress``: a bar in the activity panel.
+def _steps_of(run: Generator[int, None, Any]) -> Generator[int, None, Any]:
+    """The steps of ``run``, as a generator function napari can drive."""
+    return (yield from run)
 
-    The run renders in a thread of its own at a lower priority (:class:`.StepsInThread`),
-    so that the repaints of the window get the CPU when they need it.
-    """
-    run = StepsInThread(render(plan))
+
+def render_worker(plan: RenderPlan, progress: bool = True):
+    """An unstarted napari worker that runs ``plan``; ``progress``: a bar in the activity panel."""
+    run = render(plan)
     bar = {"_progress": {"total": plan.total_steps, "desc": PROGRESS_TITLE}} if progress else {}
-    worker = create_worker(run.steps, **bar)
+    worker = create_worker(_steps_of, run, **bar)
     plan.abort_requested = lambda: worker.abort_requested
-    # An aborted napari worker stops driving its generator without closing it: the run
-    # is closed now (in its thread, after its current step), not when it is collected.
-    worker.aborted.connect(run.stop)
+    # An aborted napari worker stops driving its generator without closing it:
+    # closing the run here stops its rendering threads now, not when it is collected.
+    worker.aborted.connect(run.close)
     return worker
 
 
