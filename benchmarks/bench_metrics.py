@@ -112,6 +112,25 @@ def other_images(size: int) -> list[np.ndarray]:
     return images
 
 
+def usage() -> tuple[float, float, float, int]:
+    """Wall clock, user and system CPU seconds, and minor page faults of this process."""
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return time.perf_counter(), r.ru_utime, r.ru_stime, r.ru_minflt
+
+
+def warm_camera_pair(size: int) -> tuple[np.ndarray, np.ndarray]:
+    """The camera at ``size`` and its rendering, after a 64 x 64 ``describe`` that
+    compiles or loads numba's cache."""
+    from napari_labyrinth import labyrinth, metrics
+
+    small = camera(64)
+    metrics.describe(small, labyrinth(small, seed=0))
+    original = camera(size)
+    return original, labyrinth(original, seed=0)
+
+
 def timed(function, *arguments):
     """``(wall seconds, CPU seconds of the process, function(*arguments))``."""
     start, cpu = time.perf_counter(), time.process_time()
@@ -188,18 +207,9 @@ def _huge_pages() -> str:
 
 def stages(size: int, rounds: int) -> None:
     """Per-stage times of ``Comparison(original).describe(rendered)`` on one thread, printed."""
-    import resource
+    from napari_labyrinth import metrics
 
-    from napari_labyrinth import labyrinth, metrics
-
-    original = camera(size)
-    rendered = labyrinth(original, seed=0)
-    small = camera(64)
-    metrics.describe(small, labyrinth(small, seed=0))  # compile or load numba's cache
-
-    def usage():
-        r = resource.getrusage(resource.RUSAGE_SELF)
-        return time.perf_counter(), r.ru_utime, r.ru_stime, r.ru_minflt
+    original, rendered = warm_camera_pair(size)
 
     def _contours(comparison, after):
         if hasattr(after, "give_back_fine"):  # as Comparison.describe does before the contours
@@ -243,13 +253,7 @@ def first_call(sizes, folder: Path, render: bool = False) -> None:
     """One fresh process's first ``metrics.describe`` at each size (planes saved in
     ``folder``, see :func:`first_calls`; with ``render``, the rendering made here), after
     a 64 x 64 call; JSON on stdout."""
-    import resource
-
     from napari_labyrinth import labyrinth, metrics
-
-    def usage():
-        r = resource.getrusage(resource.RUSAGE_SELF)
-        return time.perf_counter(), r.ru_utime, r.ru_stime, r.ru_minflt
 
     small = [np.load(folder / f"{name}-64.npy") for name in ("original", "rendered")]
     metrics.describe(*small)  # compile or load numba's cache
@@ -339,12 +343,9 @@ def release(size: int) -> None:
     import gc
     import threading
 
-    from napari_labyrinth import labyrinth, metrics
+    from napari_labyrinth import metrics
 
-    original = camera(size)
-    rendered = labyrinth(original, seed=0)
-    small = camera(64)
-    metrics.describe(small, labyrinth(small, seed=0))  # compile or load numba's cache
+    original, rendered = warm_camera_pair(size)
     comparison = metrics.Comparison(original)
     comparison.describe(rendered)
     del comparison  # the original's arrays go to the pool too
@@ -386,12 +387,9 @@ def bands(size: int, rounds: int) -> None:
     Round 1 is a first call in a fresh process, the later rounds new originals (the
     camera flipped) in the same process.
     """
-    from napari_labyrinth import labyrinth, metrics
+    from napari_labyrinth import metrics
 
-    original = camera(size)
-    rendered = labyrinth(original, seed=0)
-    small = camera(64)
-    metrics.describe(small, labyrinth(small, seed=0))  # compile or load numba's cache
+    original, rendered = warm_camera_pair(size)
     in_bands = metrics._in_bands
     log = []
 
@@ -436,18 +434,9 @@ def passes(size: int, rounds: int) -> None:
     """A stack's passes: ``rounds`` calls of ``comparison.describe(rendered)`` on one
     ``Comparison`` in a fresh process, each with its wall, user and system time and page
     faults (the first is a first call; the pool serves the later ones); printed."""
-    import resource
+    from napari_labyrinth import metrics
 
-    from napari_labyrinth import labyrinth, metrics
-
-    original = camera(size)
-    rendered = labyrinth(original, seed=0)
-    small = camera(64)
-    metrics.describe(small, labyrinth(small, seed=0))  # compile or load numba's cache
-
-    def usage():
-        r = resource.getrusage(resource.RUSAGE_SELF)
-        return time.perf_counter(), r.ru_utime, r.ru_stime, r.ru_minflt
+    original, rendered = warm_camera_pair(size)
 
     print(f"  {Path(metrics.__file__).parent} (load average {os.getloadavg()[0]:.2f})")
     comparison = metrics.Comparison(original)
