@@ -451,6 +451,14 @@ def passes(size: int, rounds: int) -> None:
         )
 
 
+def run_mode_child(tree: Path, mode: str, *options: str) -> None:
+    """Run ``--child --<mode> <options>`` on ``tree``'s ``napari_labyrinth`` in a fresh
+    process, its output printed as it comes."""
+    environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
+    command = [sys.executable, __file__, "--child", f"--{mode}", *options]
+    subprocess.run(command, env=environment, check=True)
+
+
 def run_child(tree: Path, sizes) -> dict:
     environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
     command = [sys.executable, __file__, "--child", "--sizes", *map(str, sizes)]
@@ -522,30 +530,25 @@ def main(argv=None) -> None:
         for size in args.sizes:
             trees = [ROOT] if args.against is None else [args.against.resolve(), ROOT]
             for tree in trees:
-                environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
-                command = [sys.executable, __file__, "--child", "--stages"]
-                command += ["--sizes", str(size), "--rounds", str(args.rounds)]
-                subprocess.run(command, env=environment, check=True)
+                run_mode_child(tree, "stages", "--sizes", str(size), "--rounds", str(args.rounds))
         return
 
     if args.bands:
         print(f"the machine's load average {os.getloadavg()}, {os.cpu_count()} cores")
         trees = [ROOT] if args.against is None else [args.against.resolve(), ROOT]
         for tree in trees:
-            environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
-            command = [sys.executable, __file__, "--child", "--bands"]
-            command += ["--sizes", str(args.sizes[0]), "--rounds", str(args.rounds)]
-            subprocess.run(command, env=environment, check=True)
+            run_mode_child(
+                tree, "bands", "--sizes", str(args.sizes[0]), "--rounds", str(args.rounds)
+            )
         return
     if args.passes:
         trees = [ROOT] if args.against is None else [args.against.resolve(), ROOT]
         for repeat in range(args.repeats):
             print(f"{args.sizes[0]} x {args.sizes[0]}, fresh processes ({repeat + 1})", flush=True)
             for tree in trees if repeat % 2 == 0 else trees[::-1]:
-                environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
-                command = [sys.executable, __file__, "--child", "--passes"]
-                command += ["--sizes", str(args.sizes[0]), "--rounds", str(args.rounds)]
-                subprocess.run(command, env=environment, check=True)
+                run_mode_child(
+                    tree, "passes", "--sizes", str(args.sizes[0]), "--rounds", str(args.rounds)
+                )
         return
     if args.release:
         trees = [ROOT] if args.against is None else [args.against.resolve(), ROOT]
@@ -553,9 +556,7 @@ def main(argv=None) -> None:
             for round_number in range(args.rounds):
                 print(f"round {round_number + 1}, load average {os.getloadavg()}", flush=True)
                 for tree in trees if round_number % 2 == 0 else trees[::-1]:
-                    environment = dict(os.environ, PYTHONPATH=str(tree / "src"))
-                    command = [sys.executable, __file__, "--child", "--release"]
-                    subprocess.run(command + ["--sizes", str(size)], env=environment, check=True)
+                    run_mode_child(tree, "release", "--sizes", str(size))
         return
     if args.first_calls:
         trees = {"this": ROOT}
