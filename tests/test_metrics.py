@@ -499,6 +499,20 @@ def test_a_finalizer_gives_arrays_back_without_waiting_for_the_pool():
     pool.clear()
 
 
+@pytest.mark.parametrize("height", [128, 129, 200, 333, 512, 2048, 4097])
+@pytest.mark.parametrize("workers", [2, 3, 8])
+def test_guided_bands_cover_the_rows_once_and_shrink(height, workers):
+    """The bands of ``_in_bands`` cover every row once, in order, none shorter than
+    ``_MIN_BAND_ROWS``, each no longer than the one before but the last (a remainder)."""
+    edges = metrics._guided_edges(height, workers)
+    sizes = np.diff(edges)
+    assert edges[0] == 0 and edges[-1] == height
+    assert np.all(sizes >= metrics._MIN_BAND_ROWS)
+    assert np.all(np.diff(sizes[:-1]) <= 0)
+    assert sizes[-1] < 2 * metrics._MIN_BAND_ROWS or len(sizes) == 1
+    assert len(sizes) <= 4 * metrics._BANDS_PER_WORKER * workers
+
+
 @pytest.mark.parametrize("workers", [1, 2, 3])
 def test_a_copy_in_bands_is_the_plane_in_float64(workers):
     rng = np.random.default_rng(1)
