@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from ._pages import empty_in_plain_pages
 from .core.codes import DIAGNOSTIC_FIELDS, OPTION_CODES, SKIPPED
 from .core.parameters import LabyrinthParameters
 from .core.planes import PlaneLayout
@@ -185,20 +186,24 @@ def _allocate(
     written_whole: bool = False,
 ):
     """The result (a copy of the image, or the input and a copy per pass) and, in the
-    layout of planes, where each pass (or the last) is written.
+    layout of planes, where each pass (or the last) is written. A large result is
+    in plain pages (``_pages``): its first touches, made by the render threads,
+    must not stall a GUI's event loop.
 
     ``written_whole``: the passes write every pixel of the planes they render
     (the banded pass), so only the others (alpha) are copied there.
     """
     if record_passes:
-        result = np.empty((passes + 1,) + image.shape, dtype=image.dtype)
+        result = empty_in_plain_pages((passes + 1,) + image.shape, image.dtype)
         if written_whole:
             result[0] = image
         else:
             result[...] = image
         targets = [layout.to_planes(result[k]) for k in range(1, passes + 1)]
     else:
-        result = np.empty(image.shape, image.dtype) if written_whole else image.copy()
+        result = empty_in_plain_pages(image.shape, image.dtype)
+        if not written_whole:
+            result[...] = image
         targets = [layout.to_planes(result)]
     if written_whole:
         source = layout.to_planes(image)
