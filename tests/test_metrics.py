@@ -510,7 +510,13 @@ def test_guided_bands_cover_the_rows_once_and_shrink(height, workers):
     assert np.all(sizes >= metrics._MIN_BAND_ROWS)
     assert np.all(np.diff(sizes[:-1]) <= 0)
     assert sizes[-1] < 2 * metrics._MIN_BAND_ROWS or len(sizes) == 1
-    assert len(sizes) <= 4 * metrics._BANDS_PER_WORKER * workers
+
+
+def test_guided_bands_of_a_2048_row_plane_on_two_threads():
+    """Each band a quarter of the rows left (rounded up), at least 64 rows; the last
+    takes the 76 rows left after two bands of 64."""
+    edges = metrics._guided_edges(2048, 2)
+    assert np.diff(edges).tolist() == [512, 384, 288, 216, 162, 122, 91, 69, 64, 64, 76]
 
 
 @pytest.mark.parametrize("workers", [1, 2, 3])

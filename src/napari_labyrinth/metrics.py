@@ -77,8 +77,8 @@ _DECIMATED_SIGMA = 1.0
 
 #: Rows per band below which a plane is not split into more bands.
 _MIN_BAND_ROWS = 64
-#: Bands of rows per thread: more bands than threads balance the threads' work.
-_BANDS_PER_WORKER = 4
+#: A band takes ``1 / (_SHARES_PER_WORKER * workers)`` of the rows left (``_guided_edges``).
+_SHARES_PER_WORKER = 2
 
 
 def _plane(image, name="image") -> np.ndarray:
@@ -195,7 +195,7 @@ def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) ->
 def _guided_edges(height: int, workers: int) -> list[int]:
     """Edges ``[0, ..., height]`` of bands of rows that get smaller towards the end.
 
-    Each band takes ``2 / (_BANDS_PER_WORKER * workers)`` of the rows left (at
+    Each band takes ``1 / (_SHARES_PER_WORKER * workers)`` of the rows left (at
     least ``_MIN_BAND_ROWS``; the last takes a remainder shorter than that
     too). Equal bands leave the threads waiting for the last one taken, whose
     work varies with the walls in it (a 2048² plane's wall pass in 8 bands
@@ -206,7 +206,7 @@ def _guided_edges(height: int, workers: int) -> list[int]:
     edges, start = [0], 0
     while start < height:
         left = height - start
-        rows = max(_MIN_BAND_ROWS, -(-2 * left // (_BANDS_PER_WORKER * workers)))
+        rows = max(_MIN_BAND_ROWS, -(-left // (_SHARES_PER_WORKER * workers)))
         if left - rows < _MIN_BAND_ROWS:
             rows = left
         start += rows
