@@ -12,9 +12,10 @@ such pages napari's event loop stalled for 100 to 180 ms (``bench_widget.py``,
 with the result in plain pages). Plain 4 kB pages cost a steady ~0.4 ms a MB of
 page faults, spread over the render threads; huge pages cost less when they come
 fast and about 1.8 ms a MB when they come slowly. The trade, measured in a
-quiet process: a 2048² stack of 4 passes (a 40 MB result) takes 242-250 ms
-against 226-241 ms in huge pages, 8 planes of 2048² (64 MB) 1544-1559 ms
-against 1561-1610 ms, 20 planes under 2 % of their render.
+quiet process: a 2048² stack of 4 passes (a 40 MB result) takes 242-244 ms
+against 225-232 ms in huge pages (a second call in a process), 8 planes of
+2048² (64 MB) 1542-1559 ms against 1561-1610 ms, 20 planes under 2 % of their
+render.
 
 Smaller arrays keep numpy's advice: malloc gives their memory back to the next
 array of their size, already touched, and the speed of a single plane's render
