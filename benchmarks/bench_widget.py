@@ -259,8 +259,8 @@ def _timed_run(widget) -> dict[str, float]:
             gap.longest = 0.0
             draw.__enter__()
 
-    def timed_show(*arguments):
-        shown = show_result(*arguments)
+    def timed_show(*arguments, **options):
+        shown = show_result(*arguments, **options)
         try:
             while True:
                 started = time.perf_counter()
@@ -369,8 +369,11 @@ def bench_single(viewer, widget, size: int, repeats: int) -> tuple[dict, list[di
 
 #: The ways of showing a new result layer that ``bench_new_layer`` compares.
 NEW_LAYER_VARIANTS = {
-    "in steps (as shipped)": "each step of show_result in a turn of its own",
-    "added in one turn": "the steps up to the selection in one turn, as before: "
+    "in steps (as shipped)": "each step of show_result in a turn of its own, the window's "
+    "repaint held from the insertion's turn to the next",
+    "repainted with the insertion": "as shipped, but the window repainted in the insertion's "
+    "turn (show_result without the window, as before)",
+    "added in one turn": "the steps up to the selection in one turn (the earlier way): "
     "viewer.add_image(hidden) then, a turn later, visible",
     "selection deferred": "as shipped, but inserted unselected (napari's private switch "
     "LayerList._activate_on_insert) and selected a turn later",
@@ -407,8 +410,8 @@ def _new_layer_variant(variant: str):
 
     show_result, insert = widget_module.show_result, worker_module.insert_layer
 
-    def in_one_turn(*arguments):
-        steps = show_result(*arguments)
+    def in_one_turn(*arguments, **_options):
+        steps = show_result(*arguments)  # as before: no window held
         try:
             name = next(steps)
             while name in ("built", "inserted"):  # joined to the next step, as before
@@ -426,8 +429,13 @@ def _new_layer_variant(variant: str):
         finally:
             layers._activate_on_insert = True
 
+    def window_repainted(*arguments, **options):
+        return show_result(*arguments, **{**options, "window": None})
+
     if variant == "added in one turn":
         widget_module.show_result = in_one_turn
+    elif variant == "repainted with the insertion":
+        widget_module.show_result = window_repainted
     elif variant == "selection deferred":
         worker_module.insert_layer = unselected
     try:

@@ -24,9 +24,9 @@ def _steps_until(step: str) -> list[str]:
 @pytest.fixture
 def watched_steps(monkeypatch):
     """Every step the widget runs of ``show_result``, with the state of the viewer after it:
-    (step, turned, result in the viewer, visible, active). ``turned``: whether the event
-    loop ran a zero-delay timer between the previous step and this one (it is started at
-    the end of each step), i.e. the step had a turn of its own."""
+    (step, turned, result in the viewer, visible, active, the window repaints). ``turned``:
+    whether the event loop ran a zero-delay timer between the previous step and this one
+    (it is started at the end of each step), i.e. the step had a turn of its own."""
     from qtpy.QtCore import QTimer
 
     import napari_labyrinth._qt.widget as widget_module
@@ -35,8 +35,9 @@ def watched_steps(monkeypatch):
     seen: list[tuple] = []
     actions: dict[str, object] = {}
 
-    def watched(viewer, plan, outcome, previous=None):
-        steps = show_result(viewer, plan, outcome, previous)
+    def watched(viewer, plan, outcome, previous=None, **options):
+        window = options.get("window")
+        steps = show_result(viewer, plan, outcome, previous, **options)
         turned = [True]
         try:
             while True:
@@ -51,6 +52,7 @@ def watched_steps(monkeypatch):
                         bool(layers),
                         bool(layers) and layers[0].visible,
                         active is not None and active.name == name,
+                        window is not None and window.updatesEnabled(),
                     )
                 )
                 turned[0] = False
@@ -77,11 +79,14 @@ def test_a_new_result_is_shown_step_by_step_each_in_a_turn_of_its_own(
     assert [step for step, *_ in seen] == NEW_LAYER_STEPS
     assert all(turned for _, turned, *_ in seen)
     assert [state for _, _, *state in seen] == [
-        [False, False, False],  # built, not in the viewer
-        [True, False, True],  # inserted hidden (napari selects a layer it inserts)
-        [True, False, True],  # still hidden
-        [True, True, True],  # shown
+        [False, False, False, True],  # built, not in the viewer
+        # inserted hidden (napari selects a layer it inserts); the window not repainted
+        # in this turn
+        [True, False, True, False],
+        [True, False, True, True],  # still hidden; the window repaints again
+        [True, True, True, True],  # shown
     ]
+    assert widget._viewer_window() is viewer.window._qt_window
     result = viewer.layers["cell · labyrinth"]
     assert widget.last_result is result and result.visible
     assert viewer.layers.selection.active is result
@@ -138,6 +143,7 @@ def test_a_cancel_or_a_removed_input_between_the_steps_adds_nothing(
             ), (leave, after)
             assert widget.last_result is None
             assert "Cancelled" in widget.status.value and widget.run_button.enabled
+            assert viewer.window._qt_window.updatesEnabled()  # repaints again
             viewer.layers.clear()
 
 
@@ -184,6 +190,7 @@ def test_a_result_removed_by_the_user_before_it_is_shown_ends_the_steps(
     assert [layer.name for layer in viewer.layers] == ["cell"]
     assert widget.last_result is None and widget.run_button.enabled
     assert "removed" in widget.status.value
+    assert viewer.window._qt_window.updatesEnabled()
 
 
 def test_a_result_that_replaces_a_layer_of_other_axes_takes_its_place(
@@ -224,3 +231,4 @@ def test_a_step_that_fails_is_reported_and_leaves_no_layer(
     assert [layer.name for layer in viewer.layers] == ["cell"]
     assert len(shown_errors) == 1 and "no slider here" in shown_errors[0]
     assert "Failed" in widget.status.value and widget.run_button.enabled
+    assert viewer.window._qt_window.updatesEnabled()

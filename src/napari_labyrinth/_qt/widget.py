@@ -455,8 +455,18 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             return
         key = (plan.source, plan.mode)
         previous = self._results.get(key) if self.replace.value else None
-        self._showing = show_result(self.viewer, plan, outcome, previous)
+        self._showing = show_result(
+            self.viewer, plan, outcome, previous, window=self._viewer_window()
+        )
         self._show_step(plan, outcome)
+
+    def _viewer_window(self) -> QWidget | None:
+        """The main window the widget is docked in (a floating dock's too: its parent), whose
+        repaints ``show_result`` holds for a turn; None when the widget is not docked."""
+        window = self.parentWidget()
+        while window is not None and window.parentWidget() is not None:
+            window = window.parentWidget()
+        return window
 
     def _wanted(self) -> bool:
         """Whether the run's result is still to be shown (no cancel, the dock open)."""

@@ -15,6 +15,7 @@ import numpy as np
 from napari.layers import Image
 from napari.qt.threading import create_worker
 from napari.viewer import Viewer
+from qtpy.QtWidgets import QWidget
 
 from ..plan import RenderPlan
 from ..run import Outcome, render, result_layer
@@ -69,6 +70,8 @@ def show_result(
     plan: RenderPlan,
     outcome: Outcome,
     previous: Image | None = None,
+    *,
+    window: QWidget | None = None,
 ) -> Generator[str, None, Image | None]:
     """Show the result of a finished run, one step at each ``next()``; a stack or sweep
     shows its last plane.
@@ -80,9 +83,14 @@ def show_result(
 
     1. the layer is built, hidden (a few ms);
     2. it is inserted in the layer list: napari builds its vispy visual and its
-       layer controls, selects it (shows its controls, restyles its buttons), and
-       repaints the layer list;
-    3. it is made the active layer if it is not (a plugin cannot keep napari from
+       layer controls and selects it (shows its controls, restyles its buttons).
+       ``window`` (the viewer's main window), if given, is not repainted in this
+       turn (Qt's ``setUpdatesEnabled``): Qt would otherwise repaint it at once,
+       before the event loop's next turn, and under software OpenGL the repaint
+       of a whole window (its widgets, the canvas, their composition) takes as
+       long again as napari's insertion;
+    3. the window is repainted (the new controls, the layer list); the layer is
+       made the active layer if it is not (a plugin cannot keep napari from
        selecting a layer as it inserts it but through a private switch) and the
        slider of a stack or sweep moves to its last plane;
     4. it is made visible: napari slices it once, where the viewer stands (a new
@@ -117,9 +125,11 @@ def show_result(
     replaced = previous if previous is not None and previous in viewer.layers else None
     # just above the layer it replaces, which then leaves its place to it
     position = viewer.layers.index(replaced) + 1 if replaced is not None else len(viewer.layers)
+    held = _hold_repaints(window)
     try:
         insert_layer(viewer, position, layer)
         yield "inserted"
+        held = _resume_repaints(window, held)
         if layer not in viewer.layers:
             return None
         viewer.layers.selection.active = layer
@@ -133,10 +143,32 @@ def show_result(
         if layer in viewer.layers:
             viewer.layers.remove(layer)
         raise
+    finally:
+        _resume_repaints(window, held)
     if replaced is not None and replaced in viewer.layers:
         viewer.layers.remove(replaced)
         yield "previous removed"
     return layer if layer in viewer.layers else None
+
+
+def _hold_repaints(window: QWidget | None) -> bool:
+    """Stop ``window``'s repaints until :func:`_resume_repaints`; whether this held them
+    (not if they were held already, or there is no window)."""
+    if window is None or not window.updatesEnabled():
+        return False
+    window.setUpdatesEnabled(False)
+    return True
+
+
+def _resume_repaints(window: QWidget | None, held: bool) -> bool:
+    """Let ``window`` repaint again (all of it, in a later turn) if :func:`_hold_repaints`
+    held it; returns False (nothing held any more)."""
+    if held:
+        try:
+            window.setUpdatesEnabled(True)
+        except RuntimeError:  # the window's Qt object is gone (the viewer was closed)
+            pass
+    return False
 
 
 def insert_layer(viewer: Viewer, position: int, layer: Image) -> None:
