@@ -9,6 +9,7 @@ pytest.importorskip("napari")
 pytest.importorskip("pytestqt")
 
 from napari_labyrinth import labyrinth
+from napari_labyrinth._qt.worker import main_window
 
 from .helpers import RUN_TIMEOUT_MS, noise
 
@@ -51,6 +52,44 @@ def test_preview_updates_one_layer_in_place_and_follows_the_slider(qtbot, viewer
 
     widget.preview_toggle.value = False
     assert widget.preview.layer is None and _previews(viewer) == []
+
+
+def test_a_new_preview_layer_is_shown_a_turn_after_its_insertion(qtbot, viewer, widget):
+    """Inserted hidden, the window not repainted in that turn; the window repainted in the
+    next, and the layer shown after."""
+    viewer.add_image(noise((32, 32)), name="cell")
+    window = main_window(widget)
+    assert window is viewer.window._qt_window
+    inserted = []
+
+    def on_inserted(event):
+        inserted.append((event.value.visible, window.updatesEnabled()))
+
+    viewer.layers.events.inserted.connect(on_inserted)
+    widget.preview_toggle.value = True
+    qtbot.waitUntil(lambda: _settled(widget), timeout=RUN_TIMEOUT_MS)
+    viewer.layers.events.inserted.disconnect(on_inserted)
+    assert inserted == [(False, False)]
+    assert widget.preview.layer.visible and window.updatesEnabled()
+    assert widget.preview.shown_generation == widget.preview.generation
+
+
+def test_a_preview_turned_off_before_its_layer_is_shown_leaves_nothing(
+    qtbot, viewer, widget, monkeypatch
+):
+    import napari_labyrinth._qt.preview as preview_module
+
+    monkeypatch.setattr(preview_module, "NEXT_TURN_MS", 300)  # time to turn it off between
+    viewer.add_image(noise((32, 32)), name="cell")
+    window = main_window(widget)
+    widget.preview_toggle.value = True
+    qtbot.waitUntil(lambda: widget.preview.layer is not None, timeout=RUN_TIMEOUT_MS)
+    assert not widget.preview.layer.visible and not window.updatesEnabled()
+    assert widget.preview.busy
+    widget.preview_toggle.value = False
+    assert _previews(viewer) == [] and not widget.preview.busy
+    qtbot.wait(700)  # the turns that would have shown it
+    assert window.updatesEnabled() and _previews(viewer) == [] and widget.preview.layer is None
 
 
 def test_a_stale_render_never_replaces_a_newer_one(qtbot, viewer, widget):

@@ -9,6 +9,7 @@ import pytest
 pytest.importorskip("napari")
 pytest.importorskip("pytestqt")
 
+from napari_labyrinth._qt.worker import main_window
 from napari_labyrinth.plan import METADATA_KEY
 
 from .helpers import RUN_TIMEOUT_MS, noise, reproduce, run
@@ -86,7 +87,7 @@ def test_a_new_result_is_shown_step_by_step_each_in_a_turn_of_its_own(
         [True, False, True, True],  # still hidden; the window repaints again
         [True, True, True, True],  # shown
     ]
-    assert widget._viewer_window() is viewer.window._qt_window
+    assert main_window(widget) is viewer.window._qt_window
     result = viewer.layers["cell · labyrinth"]
     assert widget.last_result is result and result.visible
     assert viewer.layers.selection.active is result

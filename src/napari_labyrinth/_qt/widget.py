@@ -46,15 +46,12 @@ from .metrics_plot import MetricsPlot
 from .metrics_table import MetricsTable
 from .preview import Preview
 from .sweep_label import SweepLabel
-from .worker import render_worker, show_result, stop
+from .worker import NEXT_TURN_MS, main_window, render_worker, show_result, stop
 
 __all__ = ["LabyrinthWidget"]
 
 #: Least seconds between two updates of the progress bar.
 PROGRESS_INTERVAL = 0.2
-#: Delay of a step put in a later turn of the event loop: a timer, not a 0 ms call, which
-#: Qt would run in the same turn, before due timers and pending repaints.
-NEXT_TURN_MS = 1
 #: The clock of those updates.
 _clock = time.monotonic
 
@@ -455,18 +452,8 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             return
         key = (plan.source, plan.mode)
         previous = self._results.get(key) if self.replace.value else None
-        self._showing = show_result(
-            self.viewer, plan, outcome, previous, window=self._viewer_window()
-        )
+        self._showing = show_result(self.viewer, plan, outcome, previous, window=main_window(self))
         self._show_step(plan, outcome)
-
-    def _viewer_window(self) -> QWidget | None:
-        """The main window the widget is docked in (a floating dock's too: its parent), whose
-        repaints ``show_result`` holds for a turn; None when the widget is not docked."""
-        window = self.parentWidget()
-        while window is not None and window.parentWidget() is not None:
-            window = window.parentWidget()
-        return window
 
     def _wanted(self) -> bool:
         """Whether the run's result is still to be shown (no cancel, the dock open)."""

@@ -125,11 +125,11 @@ def show_result(
     replaced = previous if previous is not None and previous in viewer.layers else None
     # just above the layer it replaces, which then leaves its place to it
     position = viewer.layers.index(replaced) + 1 if replaced is not None else len(viewer.layers)
-    held = _hold_repaints(window)
+    held = hold_repaints(window)
     try:
         insert_layer(viewer, position, layer)
         yield "inserted"
-        held = _resume_repaints(window, held)
+        held = resume_repaints(window, held)
         if layer not in viewer.layers:
             return None
         viewer.layers.selection.active = layer
@@ -144,15 +144,31 @@ def show_result(
             viewer.layers.remove(layer)
         raise
     finally:
-        _resume_repaints(window, held)
+        resume_repaints(window, held)
     if replaced is not None and replaced in viewer.layers:
         viewer.layers.remove(replaced)
         yield "previous removed"
     return layer if layer in viewer.layers else None
 
 
-def _hold_repaints(window: QWidget | None) -> bool:
-    """Stop ``window``'s repaints until :func:`_resume_repaints`; whether this held them
+#: Delay of a step put in a later turn of the event loop: a timer, not a 0 ms call, which
+#: Qt would run in the same turn, before due timers and pending repaints.
+NEXT_TURN_MS = 1
+
+
+def main_window(widget: QWidget | None) -> QWidget | None:
+    """The top-level window that holds ``widget`` (a floating dock's main window too: its
+    parent); None for a widget that no window holds, or for no widget."""
+    if not isinstance(widget, QWidget):
+        return None
+    window = widget.parentWidget()
+    while window is not None and window.parentWidget() is not None:
+        window = window.parentWidget()
+    return window
+
+
+def hold_repaints(window: QWidget | None) -> bool:
+    """Stop ``window``'s repaints until :func:`resume_repaints`; whether this held them
     (not if they were held already, or there is no window)."""
     if window is None or not window.updatesEnabled():
         return False
@@ -160,8 +176,8 @@ def _hold_repaints(window: QWidget | None) -> bool:
     return True
 
 
-def _resume_repaints(window: QWidget | None, held: bool) -> bool:
-    """Let ``window`` repaint again (all of it, in a later turn) if :func:`_hold_repaints`
+def resume_repaints(window: QWidget | None, held: bool) -> bool:
+    """Let ``window`` repaint again (all of it, in a later turn) if :func:`hold_repaints`
     held it; returns False (nothing held any more)."""
     if held:
         try:
