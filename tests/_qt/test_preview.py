@@ -55,8 +55,8 @@ def test_preview_updates_one_layer_in_place_and_follows_the_slider(qtbot, viewer
 
 
 def test_a_new_preview_layer_is_shown_a_turn_after_its_insertion(qtbot, viewer, widget):
-    """Inserted hidden, the window not repainted in that turn; the window repainted in the
-    next, and the layer shown after."""
+    """Inserted hidden, the window not repainted in that turn; shown, and the window
+    repainted, in the next."""
     viewer.add_image(noise((32, 32)), name="cell")
     window = main_window(widget)
     assert window is viewer.window._qt_window
@@ -88,7 +88,7 @@ def test_a_preview_turned_off_before_its_layer_is_shown_leaves_nothing(
     assert widget.preview.busy
     widget.preview_toggle.value = False
     assert _previews(viewer) == [] and not widget.preview.busy
-    qtbot.wait(700)  # the turns that would have shown it
+    qtbot.wait(400)  # the turn that would have shown it
     assert window.updatesEnabled() and _previews(viewer) == [] and widget.preview.layer is None
 
 
@@ -144,4 +144,22 @@ def test_no_full_garbage_collection_starts_by_itself_while_a_preview_renders(
     widget.preview_toggle.value = True
     qtbot.waitUntil(lambda: _settled(widget), timeout=RUN_TIMEOUT_MS)
     assert held and set(held) == {HELD_THRESHOLD}
-    assert gc.get_threshold() == threshold
+    qtbot.waitUntil(lambda: gc.get_threshold() == threshold, timeout=1000)  # a turn after
+
+
+def test_full_collections_stay_held_until_a_turn_after_the_new_layer_is_shown(
+    qtbot, viewer, widget, monkeypatch
+):
+    """The worker's hold ends as its result arrives; the layer's first draw comes later."""
+    import napari_labyrinth._qt.preview as preview_module
+    from napari_labyrinth._qt.collector import holds
+
+    monkeypatch.setattr(preview_module, "NEXT_TURN_MS", 300)
+    viewer.add_image(noise((32, 32)), name="cell")
+    widget.preview_toggle.value = True
+    qtbot.waitUntil(lambda: widget.preview.layer is not None, timeout=RUN_TIMEOUT_MS)
+    qtbot.waitUntil(lambda: widget.preview._worker is None, timeout=RUN_TIMEOUT_MS)
+    assert not widget.preview.layer.visible and holds() == 1  # the worker's hold has ended
+    qtbot.waitUntil(lambda: widget.preview.layer.visible, timeout=1000)
+    assert holds() == 1  # until the turn after the first draw
+    qtbot.waitUntil(lambda: holds() == 0, timeout=1000)

@@ -7,10 +7,10 @@ flight, and a render that is not the newest is never shown: each one carries
 a generation number, and only the newest generation updates the layer. The
 layer is updated in place; turning the preview off removes it. A new preview
 layer is inserted hidden, with the window's repaints held for that turn of the
-event loop; the window is repainted in the next turn and the layer shown in the
-one after (as the widget shows a new result: ``worker.show_result``), so that
-napari's insertion, Qt's repaint of the window and the layer's first draw do
-not stall one turn together.
+event loop, and shown in the next (as the widget shows a new result:
+``worker.show_result``), so that napari's insertion and Qt's repaint of the
+window after it do not stall one turn together. Full garbage collections stay
+held until a turn after the draw of what a render shows.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from qtpy.QtCore import QObject, QTimer
 
 from ..plan import Choices, LayerSnapshot, RenderPlan, make_plan, preview_choices
 from ..run import Failure, Outcome, result_layer
-from .collector import hold_while_running
+from .collector import hold_full_collections, hold_while_running
 from .worker import (
     NEXT_TURN_MS,
     agrees,
@@ -159,42 +159,43 @@ class Preview:
         assert isinstance(outcome, Outcome)
         data, kwargs = result_layer(plan, outcome)
         kwargs["name"] = f"{plan.source} · preview"
+        # the worker's hold ends after this turn: no full collection in the draws to come
+        release = hold_full_collections()
         layer = self.layer
         if layer is None or layer not in self.viewer.layers or layer.data.shape != data.shape:
             if layer is not None and layer in self.viewer.layers:
                 self.viewer.layers.remove(layer)
-            self._insert(Image(data, visible=False, **kwargs), generation, requested_at)
+            self._insert(Image(data, visible=False, **kwargs), generation, requested_at, release)
             return
         layer.data = data
         for name in _UPDATED:
             if not agrees(getattr(layer, name), kwargs[name]):
                 setattr(layer, name, kwargs[name])  # a transform costs napari an extent
         self._shown(generation, requested_at)
+        QTimer.singleShot(NEXT_TURN_MS, release)  # after the draw of the update
 
-    def _insert(self, layer: Image, generation: int, requested_at: float) -> None:
+    def _insert(self, layer: Image, generation: int, requested_at: float, release) -> None:
         """Insert the new preview layer hidden, the window not repainted in this turn;
-        repaint the window in the next, and show the layer in the one after."""
+        show it in the next (``release`` ends the hold on full collections after that)."""
         window = main_window(self._parent)
         held = hold_repaints(window)
         try:
             self.viewer.layers.append(layer)
         except BaseException:
             resume_repaints(window, held)
+            release()
             raise
         self.layer, self._revealing = layer, True
         QTimer.singleShot(
-            NEXT_TURN_MS, lambda: self._reveal(layer, window, held, generation, requested_at)
+            NEXT_TURN_MS,
+            lambda: self._reveal(layer, window, held, generation, requested_at, release),
         )
 
-    def _reveal(self, layer: Image, window, held: bool, generation: int, requested_at: float):
-        """The turn after the insertion: the window repaints; the layer is shown in the turn
-        after (its first draw and the whole window's repaint in one turn took 180-210 ms
-        under software OpenGL, against under 65 ms in two)."""
+    def _reveal(self, layer, window, held: bool, generation: int, requested_at: float, release):
+        """The turn after the insertion: the window repaints and the layer is shown, unless
+        the preview went off or moved to another layer meanwhile."""
         resume_repaints(window, held)
-        QTimer.singleShot(NEXT_TURN_MS, lambda: self._make_visible(layer, generation, requested_at))
-
-    def _make_visible(self, layer: Image, generation: int, requested_at: float) -> None:
-        """Show the new preview layer, unless the preview went off or moved to another layer."""
+        QTimer.singleShot(NEXT_TURN_MS, release)  # after the first draw
         if layer is not self.layer:
             return
         self._revealing = False
