@@ -204,6 +204,9 @@ def test_the_metrics_of_a_stack_clear_when_the_mode_or_the_input_changes(qtbot, 
 
 
 def test_closing_the_viewer_cancels_the_run(qtbot, make_napari_viewer):
+    from napari_labyrinth._qt.collector import holds
+
+    held_before = holds()
     viewer = make_napari_viewer(show=True)
     _, widget = viewer.window.add_plugin_dock_widget("napari-labyrinth", "Labyrinthine tiling")
     _, worker = _start_long_run(viewer, widget)
@@ -219,6 +222,8 @@ def test_closing_the_viewer_cancels_the_run(qtbot, make_napari_viewer):
         worker.start()
     assert widget._closed
     qtbot.waitUntil(_no_rendering_thread, timeout=RUN_TIMEOUT_MS)
+    qtbot.wait(50)
+    assert holds() == held_before  # full collections given back
 
 
 def test_the_progress_bar_changes_a_few_times_a_second_not_at_the_end(widget, monkeypatch):

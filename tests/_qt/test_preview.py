@@ -156,10 +156,13 @@ def test_full_collections_stay_held_until_a_turn_after_the_new_layer_is_shown(
 
     monkeypatch.setattr(preview_module, "NEXT_TURN_MS", 300)
     viewer.add_image(noise((32, 32)), name="cell")
+    qtbot.wait(50)
+    held_before = holds()
     widget.preview_toggle.value = True
     qtbot.waitUntil(lambda: widget.preview.layer is not None, timeout=RUN_TIMEOUT_MS)
-    qtbot.waitUntil(lambda: widget.preview._worker is None, timeout=RUN_TIMEOUT_MS)
-    assert not widget.preview.layer.visible and holds() == 1  # the worker's hold has ended
+    # the worker's hold has ended
+    qtbot.waitUntil(lambda: holds() == held_before + 1, timeout=250)
+    assert not widget.preview.layer.visible and widget.preview._worker is None
     qtbot.waitUntil(lambda: widget.preview.layer.visible, timeout=1000)
-    assert holds() == 1  # until the turn after the first draw
-    qtbot.waitUntil(lambda: holds() == 0, timeout=1000)
+    assert holds() == held_before + 1  # until the turn after the first draw
+    qtbot.waitUntil(lambda: holds() == held_before, timeout=1000)

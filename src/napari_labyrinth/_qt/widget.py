@@ -561,6 +561,10 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             return
         self._closed = True
         self._cancel_because("the widget was closed")
+        # the run will not settle here if the viewer goes (Qt drops the turns queued for a
+        # deleted widget): its hold on full collections ends now
+        release, self._release_collections = self._release_collections, _nothing
+        release()
         self.preview.close()
         self.auto_window.close()
         self.sweep_label.disconnect()
