@@ -4,7 +4,8 @@ Run under Xvfb: ``xvfb-run -a python benchmarks/bench_widget.py`` (``make bench-
 ``--parts preview,single,stack,planes`` chooses the parts. Prints figures; asserts
 nothing; the machine's load is printed before and after. Parts:
 
-- ``preview``: from a change of V to the updated preview layer, 1024² and 2048²;
+- ``preview``: from a change of V to the updated preview layer, 1024² and 2048², and the
+  longest event-loop gaps turning the preview on (it adds its layer) and as V changes;
 - ``single``: Run -> result layer of one 2048² uint16 plane, default preset, warm, split
   into the worker's rendering and the main thread's steps of showing the result (each
   in a turn of the event loop of its own), when the run updates the last result in
@@ -205,23 +206,29 @@ def image(size: int, planes: int = 0, dtype=np.uint16) -> np.ndarray:
     return np.stack([np.roll(base, 7 * k, axis=1) for k in range(planes)])
 
 
-def bench_preview(viewer, widget, size: int, repeats: int) -> float:
-    """Seconds from a change of V to the updated preview layer, best of ``repeats``."""
+def bench_preview(viewer, widget, size: int, repeats: int) -> tuple[float, float, float]:
+    """Seconds from a change of V to the updated preview layer, best of ``repeats``; the
+    longest event-loop gap from turning the preview on to 0.5 s after its layer is shown
+    (the first render, and the new layer), and while V changes."""
     _clear(viewer)
     viewer.add_image(image(size), name=f"{size}")
-    widget.preview_toggle.value = True
-    _wait(lambda: widget.preview.layer is not None and not widget.preview.busy)
+    with GapMeter() as gap:
+        widget.preview_toggle.value = True
+        _wait(lambda: widget.preview.layer is not None and not widget.preview.busy)
+        _events(0.5)
+    gap_on = gap.longest
     field = widget.fields["variance_threshold"]
     times = []
-    for k in range(repeats + 1):  # the first is a warm-up
-        before = widget.preview.shown_generation
-        started = time.perf_counter()
-        field.value = 0.035 + 0.001 * (k % 5)
-        _wait(lambda before=before: widget.preview.shown_generation > before)
-        _events()  # the canvas repaints
-        times.append(time.perf_counter() - started)
+    with GapMeter() as gap:
+        for k in range(repeats + 1):  # the first is a warm-up
+            before = widget.preview.shown_generation
+            started = time.perf_counter()
+            field.value = 0.035 + 0.001 * (k % 5)
+            _wait(lambda before=before: widget.preview.shown_generation > before)
+            _events()  # the canvas repaints
+            times.append(time.perf_counter() - started)
     widget.preview_toggle.value = False
-    return min(times[1:])
+    return min(times[1:]), gap_on, gap.longest
 
 
 def _timed_run(widget) -> dict[str, float]:
@@ -567,9 +574,13 @@ def _viewer():
 
 
 def _preview_part(viewer, widget, size: int, args) -> None:
-    seconds = bench_preview(viewer, widget, size, args.repeats)
+    seconds, gap_on, gap_changes = bench_preview(viewer, widget, size, args.repeats)
     print(f"\npreview, {size}² uint16, default preset: change of V -> updated preview on screen")
     print(f"  {1000 * seconds:7.0f} ms (best of {args.repeats}, debounce included)")
+    print(
+        f"  longest event-loop gap: {1000 * gap_on:.0f} ms turning it on (its first render"
+        f" and new layer), {1000 * gap_changes:.0f} ms while V changes"
+    )
 
 
 def _stack_part(viewer, widget, args) -> None:
