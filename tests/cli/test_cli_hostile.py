@@ -322,7 +322,8 @@ def test_sigint_leaves_no_temporary_and_sigkill_leftovers_are_removed_next_time(
     output = tmp_path / f"out{suffix}"
     child = _start_slow_write(tmp_path, output)
     child.send_signal(signal.SIGINT)
-    assert child.wait(timeout=120) == 130
+    code = child.wait(timeout=120)
+    assert code == 130, child.stderr.read().decode(errors="replace")[-2000:]
     assert not list(tmp_path.glob(f".{output.name}.*")), "SIGINT left a temporary"
 
     child = _start_slow_write(tmp_path, output)
@@ -337,3 +338,42 @@ def test_sigint_leaves_no_temporary_and_sigkill_leftovers_are_removed_next_time(
     )
     assert done.returncode == 0, done.stderr
     assert not left.exists() and not list(tmp_path.glob(f".{output.name}.*"))
+
+
+class _InterruptedFinaliser:
+    """Ctrl-C arriving while the garbage collector runs a finaliser: Python drops it."""
+
+    def __del__(self):
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(3):  # the handler runs here, inside the finaliser
+            time.sleep(0)
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+@pytest.mark.parametrize("suffix", [".tif", ".zarr"])
+def test_an_interrupt_a_finaliser_swallowed_still_stops_the_write(
+    tmp_path, suffix, monkeypatch, capsys
+):
+    import zarr
+
+    from napari_labyrinth import lazy
+
+    stack = tmp_path / "stack.zarr"
+    zarr.create_array(store=str(stack), shape=(6, 32, 32), chunks=(1, 32, 32), dtype="u1")
+    output = tmp_path / f"out{suffix}"
+    run_blocks = lazy.run_blocks
+
+    def interrupted_once_started(*args, **kwargs):
+        _InterruptedFinaliser()  # collected at once, in the main thread
+        return run_blocks(*args, **kwargs)
+
+    monkeypatch.setattr(lazy, "run_blocks", interrupted_once_started)
+    lost = []  # what Python reports as "Exception ignored in ..."
+    monkeypatch.setattr(sys, "unraisablehook", lambda report: lost.append(report.exc_type))
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    code = main(["render", str(stack), "-o", str(output), "--passes", "2"])
+    err = capsys.readouterr().err
+    assert lost == [KeyboardInterrupt]
+    assert code == 130 and "interrupted" in err
+    assert not output.exists() and not list(tmp_path.glob(f".{output.name}.*"))
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

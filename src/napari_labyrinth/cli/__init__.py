@@ -27,6 +27,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from .interrupts import interrupts_recorded, raise_if_interrupted
+
 __all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE", "PROG", "main"]
 
 PROG = "napari-labyrinth"
@@ -71,21 +73,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
-    try:
-        return _run(args)
-    except UsageError as exc:
-        print_error(str(exc))
-        return EXIT_USAGE
-    except Refused as exc:
-        for line in exc.args:
-            print_error(line)
-        return EXIT_FAILED
-    except Failed as exc:
-        print_error(str(exc))
-        return EXIT_FAILED
-    except KeyboardInterrupt:
-        print_error("interrupted")
-        return EXIT_INTERRUPTED
+    with interrupts_recorded():
+        try:
+            code = _run(args)
+            raise_if_interrupted()  # an interrupt a finaliser swallowed still counts
+            return code
+        except UsageError as exc:
+            print_error(str(exc))
+            return EXIT_USAGE
+        except Refused as exc:
+            for line in exc.args:
+                print_error(line)
+            return EXIT_FAILED
+        except Failed as exc:
+            print_error(str(exc))
+            return EXIT_FAILED
+        except KeyboardInterrupt:
+            print_error("interrupted")
+            return EXIT_INTERRUPTED
 
 
 def _run(args) -> int:

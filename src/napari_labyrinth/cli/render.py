@@ -37,6 +37,7 @@ from . import (
     make_directory,
     path_key,
 )
+from .interrupts import raise_if_interrupted
 from .parser import render_options
 
 #: Suffix a directory batch gives the rendering of an input in a lossy format, or in
@@ -198,6 +199,9 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
     )
 
     def progress(done: int, total: int, unit: str = "pass") -> None:
+        raise_if_interrupted()  # after each pass or block: an interrupt lost meanwhile stops here
+        if not show:
+            return
         planes_bar.set_description_str(PROGRESS_LABELS[unit], refresh=False)
         planes_bar.unit = unit
         planes_bar.total = total
@@ -211,7 +215,7 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
             try:
                 if job.error is not None:
                     raise _FileError(job.error)
-                _render_one(job, args, options, progress if show else None)
+                _render_one(job, args, options, progress)
             except Exception as exc:  # noqa: BLE001 - one file's failure never stops a batch
                 failed.append(job.input)
                 tqdm.write(f"{PROG}: error: {job.input}: {_failure(exc, job)}", file=sys.stderr)
