@@ -207,6 +207,35 @@ def bench_overhead(size, repeats):
         print(f"  {name:<34}{seconds * 1e3:>8.3f} ms")
     around = wall["labyrinth()"] - wall["kernel (run_pass on the tones)"]
     print(f"  {'labyrinth() - kernel':<34}{around * 1e3:>8.3f} ms  ({load()})")
+    bench_limits_in_situ(image, tones, parameters, repeats)
+
+
+def bench_limits_in_situ(image, tones, parameters, repeats):
+    """The default tone limits (one sweep over the image's values) where ``labyrinth()``
+    finds them, just after a pass and a copy of the image (as in the first table), against
+    the same sweep again at once, and with the caches evicted: what the memory costs."""
+    from napari_labyrinth._engine import run_pass
+    from napari_labyrinth.core.tone_scale import default_percentiles
+
+    evict = np.zeros(64 << 20, np.uint8)  # twice the last-level cache
+    seconds = {"after a pass and a copy": [], "the same again (hot)": [], "caches evicted": []}
+
+    def timed(name, values):
+        start = time.perf_counter()
+        default_percentiles(values)
+        seconds[name].append(time.perf_counter() - start)
+
+    for _ in range(repeats):
+        run_pass(tones.copy(), parameters, has_nonfinite=False)
+        values = image.copy()
+        timed("after a pass and a copy", values)
+        timed("the same again (hot)", values)
+        evict[::64] += 1
+        timed("caches evicted", values)
+    print(f"default tone limits of the {image.nbytes >> 20} MB of values, {repeats} rounds:")
+    for name, times in seconds.items():
+        print(f"  {name:<34}best {min(times) * 1e3:.3f} ms, median"
+              f" {np.median(times) * 1e3:.3f} ms")  # fmt: skip
 
 
 #: scikit-image's own images (shipped with it) that ``other_images`` renders: photographs,
