@@ -21,7 +21,8 @@ machine disturbs less) and ratios; the load average is printed beside them.
 Also: the pure-Python oracle, import time and the first call in a new
 process (cold and warm numba cache); with ``--overhead``, the steps of
 ``labyrinth()`` around the pass timed on their own (paper, uint16, 1 pass),
-and the default tone limits of seventeen uint16 images (photographs, textures,
+the default tone limits just after a pass, again at once and with the caches
+evicted, and the default tone limits of seventeen uint16 images (photographs, textures,
 noise, a dark field: the route each takes); with ``--images``, ``labyrinth()``
 against the kernel on those images too (1 pass, both presets).
 Run: ``make bench`` or ``python benchmarks/bench_kernel.py [--size 2048]
