@@ -26,22 +26,27 @@ def test_progress_bar_counts_every_plane_and_pass(qtbot, viewer, widget, mode, t
     worker = widget.run(start=False)
     # planes x passes (x values of a sweep), and assembling the result
     assert worker.pbar.total == total
-    yields, bars = [], []
 
-    def on_yield(value):
-        yields.append(value)
-        if len(yields) == 3:  # the bar napari shows in its activity panel
-            bars.extend(
-                (bar.description_label.text(), bar.qt_progress_bar.maximum())
-                for top in QApplication.topLevelWidgets()
-                for bar in top.findChildren(QtLabeledProgressBar)
-            )
+    def bars():  # the bar napari shows for the run in its activity panel
+        return [
+            (bar.description_label.text(), bar.qt_progress_bar.maximum())
+            for top in QApplication.topLevelWidgets()
+            for bar in top.findChildren(QtLabeledProgressBar)
+            if bar.progress is worker.pbar
+        ]
 
-    worker.yielded.connect(on_yield)
+    yields = []
+    worker.yielded.connect(yields.append)
+    # held before its first step: napari makes and labels the bar as the worker starts,
+    # processing the events waiting meanwhile (yields of a fast run among them)
+    worker.pause()
     worker.start()
+    labelled = lambda: bool(bars()) and bars()[0][0] != ""  # noqa: E731
+    qtbot.waitUntil(lambda: worker.is_paused and labelled(), timeout=RUN_TIMEOUT_MS)
+    assert bars() == [("Labyrinthine tiling: ", total)] and yields == []
+    worker.resume()
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
     assert len(yields) == worker.pbar.total
-    assert ("Labyrinthine tiling: ", total) in bars, bars
 
 
 def test_by_default_the_progress_shows_in_the_widget_only(qtbot, viewer, widget):
