@@ -242,7 +242,7 @@ def bench_limits_in_situ(image, tones, parameters, repeats):
         timed(read, image.copy(), np.ndarray.max)
     print(f"default tone limits of the {image.nbytes >> 20} MB of values, {repeats} rounds:")
     for name, times in seconds.items():
-        print(f"  {name:<34}best {min(times) * 1e3:.3f} ms, median"
+        print(f"  {name:<36}best {min(times) * 1e3:.3f} ms, median"
               f" {np.median(times) * 1e3:.3f} ms")  # fmt: skip
 
 
