@@ -417,7 +417,7 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
         for event in api.labyrinth_steps(image, mode, **kwargs):
             if isinstance(event, api.Result):
                 result, limits = event.image, event.tone_limits
-            elif progress is not None:
+            else:
                 progress(event.done, event.total)
         record = provenance_record(job.input, image, mode, kwargs, limits)
         extra = 0 if mode == "single" else 1
@@ -427,7 +427,7 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             result,
             overwrite=args.overwrite,
             plane_axes=plane_axes(image.ndim, channel_axis, extra),
-            progress=functools.partial(progress, unit="plane") if chunked and progress else None,
+            progress=functools.partial(progress, unit="plane") if chunked else None,
             metadata=metadata.for_output("Q" if extra else None, record),
         )
     finally:
