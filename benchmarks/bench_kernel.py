@@ -20,7 +20,8 @@ Figures are Mpx/s per pass (wall clock, and thread CPU time, which a busy
 machine disturbs less) and ratios; the load average is printed beside them.
 Also: the pure-Python oracle, import time and the first call in a new
 process (cold and warm numba cache); with ``--overhead``, the steps of
-``labyrinth()`` around the pass timed on their own (paper, uint16, 1 pass),
+``labyrinth()`` around the pass timed on their own (paper, uint16, 1 pass: the
+engine's render with the tone scale given, the default tone limits, ...),
 the default tone limits just after a pass, again at once and with the caches
 evicted, and the default tone limits of seventeen uint16 images (photographs, textures,
 noise, a dark field: the route each takes); with ``--images``, ``labyrinth()``
@@ -169,14 +170,17 @@ def bench_overhead(size, repeats):
     """What ``labyrinth()`` does around the pass (paper, uint16, 1 pass), interleaved:
     the kernel alone, the whole call, and the steps before the pass on their own."""
     from napari_labyrinth import labyrinth, resolve_parameters
-    from napari_labyrinth._engine import run_pass
+    from napari_labyrinth._engine import render, run_pass, run_to_end
     from napari_labyrinth.core import presets
     from napari_labyrinth.core.percentiles import linear_ranks, tail_rank_values
+    from napari_labyrinth.core.planes import PlaneLayout
     from napari_labyrinth.core.tone_scale import DEFAULT_PERCENTILES, resolve_tone_scale
 
     image = camera(size, np.uint16)
     parameters = resolve_parameters("paper", passes=1)
-    tones = resolve_tone_scale(image, None).to_tones(image)
+    scale = resolve_tone_scale(image, None)
+    tones = scale.to_tones(image)
+    layout = PlaneLayout(image.shape, None)
     ranks, _ = linear_ranks(image.size, DEFAULT_PERCENTILES)
     variants = {
         "kernel (run_pass on the tones)": (
@@ -186,6 +190,12 @@ def bench_overhead(size, repeats):
         "labyrinth()": (
             image.copy,
             lambda values: labyrinth(values, preset="paper", passes=1, workers=1),
+        ),
+        "the engine's render, scale given": (
+            image.copy,
+            lambda values: run_to_end(
+                render(values, layout, scale, parameters, 0, record_passes=False)
+            ),
         ),
         "default tone limits": (image.copy, lambda values: resolve_tone_scale(values, None)),
         "  the same by two sweeps": (
@@ -206,8 +216,14 @@ def bench_overhead(size, repeats):
     print(f"best of {repeats} interleaved rounds, each step on a fresh copy of the image")
     for name, seconds in wall.items():
         print(f"  {name:<34}{seconds * 1e3:>8.3f} ms")
-    around = wall["labyrinth()"] - wall["kernel (run_pass on the tones)"]
+    kernel = wall["kernel (run_pass on the tones)"]
+    engine = wall["the engine's render, scale given"]
+    around = wall["labyrinth()"] - kernel
     print(f"  {'labyrinth() - kernel':<34}{around * 1e3:>8.3f} ms  ({load()})")
+    print(f"    {'of which tones in, values out':<32}{(engine - kernel) * 1e3:>8.3f} ms"
+          " (the engine's render - kernel)")  # fmt: skip
+    print(f"    {'and tone limits, call, checks':<32}{(wall['labyrinth()'] - engine) * 1e3:>8.3f}"
+          " ms (labyrinth() - the engine's render)")  # fmt: skip
     bench_limits_in_situ(image, tones, parameters, repeats)
 
 
