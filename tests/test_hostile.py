@@ -14,7 +14,7 @@ import time
 import numpy as np
 import pytest
 
-from napari_labyrinth import labyrinth, labyrinth_stack, labyrinth_sweep
+from napari_labyrinth import labyrinth, labyrinth_stack, labyrinth_steps, labyrinth_sweep
 from napari_labyrinth._budget import (
     MEMORY_ENV,
     MemoryBudgetError,
@@ -151,6 +151,47 @@ def test_a_big_endian_image_renders_as_its_native_equivalent_in_its_own_dtype(dt
     lazy = labyrinth(da.from_array(big, chunks=(6, 12)), passes=2, seed=4)
     assert lazy.dtype == np.dtype(dtype)
     np.testing.assert_array_equal(lazy.compute(), out)
+
+
+@pytest.mark.parametrize("dtype", [">u2", ">f4"])
+@pytest.mark.parametrize("limits", [None, (0.0, 500.0)])
+def test_a_big_endian_image_keeps_its_tone_limits_in_the_result(dtype, limits):
+    big = (IMAGE.astype(np.float64) * 3).astype(dtype)
+    native = big.astype(np.dtype(dtype).newbyteorder("="))
+    *_, result = labyrinth_steps(big, tone_limits=limits, passes=1)
+    *_, expected = labyrinth_steps(native, tone_limits=limits, passes=1)
+    assert result.tone_limits == expected.tone_limits is not None
+    assert result.image.dtype == np.dtype(dtype)
+
+
+# -- valid input once refused: read-only arrays -----------------------------------------------------
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16, np.float32])
+@pytest.mark.parametrize("kwargs", [{}, {"passes": 1}, {"preset": "paper"}, {"passes": 3}])
+def test_a_read_only_image_renders_as_a_writable_one(dtype, kwargs):
+    writable = (IMAGE.astype(np.float64) * (200 if dtype == np.uint16 else 1)).astype(dtype)
+    image = writable.copy()
+    image.flags.writeable = False
+    np.testing.assert_array_equal(labyrinth(image, **kwargs), labyrinth(writable, **kwargs))
+    np.testing.assert_array_equal(
+        labyrinth_stack(image, passes=2), labyrinth_stack(writable, passes=2)
+    )
+    np.testing.assert_array_equal(
+        labyrinth_sweep(image, "seed", [1, 2]), labyrinth_sweep(writable, "seed", [1, 2])
+    )
+    np.testing.assert_array_equal(image, writable)
+
+
+def test_a_read_only_memory_map_renders_and_stays_as_it_is(tmp_path):
+    path = tmp_path / "values.dat"
+    values = np.memmap(path, dtype=np.uint16, mode="w+", shape=(3, 40, 36))
+    values[...] = np.random.default_rng(2).integers(0, 4000, values.shape)
+    values.flush()
+    before = path.read_bytes()
+    mapped = np.memmap(path, dtype=np.uint16, mode="r", shape=(3, 40, 36))
+    np.testing.assert_array_equal(labyrinth(mapped), labyrinth(np.array(mapped)))
+    assert path.read_bytes() == before
 
 
 # -- silent garbage ---------------------------------------------------------------------------------

@@ -247,13 +247,16 @@ def _banded_pass(
     made in the first pass, and the values written into ``target`` unless it is None."""
     from .core._banded_pass import band_rows, banded_pass  # numba is imported on first use only
 
+    write_out = target is not None
+    if not write_out:  # never written then, but typed as written: numba refuses a read-only
+        target = np.empty((0, 0), values.dtype)  # array there (``values`` may be one)
     banded_pass(
         values,
-        values if target is None else target,  # not written to without write_out
+        target,
         work,
         band_rows(values.shape[1]),
         pass_index == 0,
-        target is not None,
+        write_out,
         *banded_scale_arguments(scale, values.dtype),
         *_kernel_arguments(parameters),
         np.uint64(seed),

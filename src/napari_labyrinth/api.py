@@ -681,7 +681,7 @@ def _in_dtype(
     try:
         for event in steps:
             if isinstance(event, Result):
-                event = Result(event.image.astype(dtype), event.diagnostics)
+                event = dataclasses.replace(event, image=event.image.astype(dtype))
             yield event
     finally:
         steps.close()
