@@ -14,7 +14,13 @@ import time
 import numpy as np
 import pytest
 
-from napari_labyrinth import labyrinth, labyrinth_stack, labyrinth_steps, labyrinth_sweep
+from napari_labyrinth import (
+    find_window,
+    labyrinth,
+    labyrinth_stack,
+    labyrinth_steps,
+    labyrinth_sweep,
+)
 from napari_labyrinth._budget import (
     MEMORY_ENV,
     MemoryBudgetError,
@@ -118,6 +124,22 @@ NAMED_ERRORS = [
         ValueError,
         "image is a dask array with unknown chunk sizes",
     ),
+]
+
+
+HUGE = 10**400  # beyond float64: float() of it overflows
+
+
+NAMED_ERRORS += [
+    (lambda: labyrinth(IMAGE, mean_threshold=HUGE), ValueError, "mean_threshold must be finite"),
+    (lambda: labyrinth(IMAGE, variance_threshold=-HUGE), ValueError, "variance_threshold must"),
+    (lambda: labyrinth(IMAGE, tone_ranges=[0, HUGE]), ValueError, "tone_ranges must lie on"),
+    (lambda: labyrinth(IMAGE, tone_ranges=3, tones=[(0, HUGE)] * 3), ValueError, "tones must lie"),
+    (lambda: labyrinth(IMAGE, tone_limits=(0, HUGE)), ValueError, "tone_limits must be finite"),
+    (lambda: find_window(IMAGE, thresholds=[0.01, HUGE]), ValueError, "thresholds must be"),
+    (lambda: labyrinth_sweep(IMAGE, "seed", [1], seed=3), TypeError, "seed is swept"),
+    (lambda: labyrinth_sweep(IMAGE, "seed", [1], seed=0), TypeError, "seed is swept"),
+    (lambda: labyrinth_sweep(IMAGE, ["seed"], [1]), ValueError, "parameter must be one of"),
 ]
 
 
@@ -304,6 +326,19 @@ def test_a_lazy_image_of_huge_planes_is_refused_before_a_block_is_read(monkeypat
         labyrinth(huge, tone_limits=(0, 255))
     small = da.zeros((2, 64, 64), dtype=np.uint8)
     assert labyrinth(small).shape == (2, 64, 64)
+
+
+def test_a_result_too_big_for_the_memory_is_refused_before_it_is_allocated(monkeypatch):
+    # a view of one value declaring 10**12 pixels: numpy's MemoryError leaked out of the engine
+    with pytest.raises(MemoryBudgetError, match="the rendering of 1000000 x 1000000 uint8"):
+        labyrinth(np.broadcast_to(np.uint8(3), (10**6, 10**6)))
+    monkeypatch.setenv(MEMORY_ENV, "64M")
+    image = np.zeros((1024, 1024), np.uint8)
+    with pytest.raises(MemoryBudgetError, match="a stack of the input and 400 passes .* 64.0 MiB"):
+        labyrinth_stack(image, passes=400)
+    with pytest.raises(MemoryBudgetError, match="a sweep of 40 renderings"):
+        labyrinth_sweep(image, "seed", list(range(40)))
+    assert labyrinth_stack(image, passes=3).shape == (4, 1024, 1024)
 
 
 def test_a_zarr_store_too_big_to_read_whole_is_refused_before_reading(tmp_path, monkeypatch):

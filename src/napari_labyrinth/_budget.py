@@ -126,6 +126,36 @@ def refuse_unaffordable(
         raise MemoryBudgetError(f"{name}: {reason}")
 
 
+#: Results below this size are not weighed against the memory available: such an
+#: allocation cannot exhaust a machine that runs napari, and reading what is available
+#: costs tens of µs a call.
+WEIGHED_RESULT_BYTES = 64 << 20
+
+
+def refuse_unaffordable_result(
+    shape: Sequence[int], dtype: np.dtype, copies: int, what: str
+) -> None:
+    """Raise :class:`MemoryBudgetError` if ``copies`` arrays of ``shape`` and ``dtype`` (the
+    result of a rendering of an image already in memory: 1, a pass each in a stack, or a
+    rendering each, stacked, in a sweep) and the work of one plane exceed the memory
+    this run may use; ``what`` names the result in the message."""
+    result = copies * math.prod(int(n) for n in shape) * np.dtype(dtype).itemsize
+    if result < WEIGHED_RESULT_BYTES:
+        return
+    shape = tuple(int(n) for n in shape)
+    plane = shape[-3:-1] if len(shape) >= 3 and shape[-1] <= 4 else shape[-2:]
+    needed = result + WORK_BYTES_PER_PIXEL * math.prod(plane)
+    limit = memory_limit()
+    if needed > limit:
+        dims = " x ".join(str(n) for n in shape)
+        raise MemoryBudgetError(
+            f"{what} of {dims} {np.dtype(dtype).name} pixels needs about {_bytes_text(needed)}, "
+            f"more than the {_bytes_text(limit)} this run may use: render fewer passes or "
+            f"values, crop the image, pass it as a dask array (rendered lazily, plane by "
+            f"plane), or set {MEMORY_ENV} to allow more"
+        )
+
+
 def declared_refusal(path: Path, kind: str) -> str | None:
     """Why the image file at ``path`` cannot be read into memory here, from its header alone.
 

@@ -20,9 +20,17 @@ from typing import Any
 import numpy as np
 
 from . import _engine
+from ._budget import refuse_unaffordable_result
 from ._engine import DIAGNOSTICS_DTYPE, Progress, run_pass
 from .core.colour import TONES, LuminancePlanes
-from .core.parameters import SEED, WORKERS, LabyrinthParameters, is_auto, without_auto
+from .core.parameters import (
+    DEFAULT_SEED,
+    SEED,
+    WORKERS,
+    LabyrinthParameters,
+    is_auto,
+    without_auto,
+)
 from .core.planes import (
     PlaneLayout,
     normalise_channel_axis,
@@ -60,7 +68,7 @@ MODES = ("single", "stack", "sweep")
 #: Keywords of the rendering functions that are not parameters of the algorithm.
 RENDER_OPTIONS = {
     "preset": DEFAULT_PRESET,
-    "seed": 0,
+    "seed": DEFAULT_SEED,
     "channel_axis": None,
     "alpha": None,
     "colour": None,
@@ -437,13 +445,14 @@ def labyrinth_steps(
         raise ValueError(f"mode must be one of {', '.join(map(repr, MODES))}; got {mode!r}")
     if mode != "sweep" and (parameter is not None or values is not None):
         raise TypeError("parameter and values are for mode='sweep'")
+    seed_given = options.get("seed")  # None if not given: a sweep of seeds takes none
     render = {name: options.pop(name, default) for name, default in RENDER_OPTIONS.items()}
     overrides = options
     if is_auto(overrides.get("variance_threshold")):
         overrides = dict(overrides, variance_threshold=_auto_threshold(image, render, overrides))
     if mode == "sweep":
         runs = resolve_sweep(
-            render["preset"], overrides, render["seed"], parameter or "variance_threshold", values
+            render["preset"], overrides, seed_given, parameter or "variance_threshold", values
         )
     else:
         runs = [(resolve_parameters(render["preset"], **overrides), SEED.validate(render["seed"]))]
@@ -472,6 +481,14 @@ def labyrinth_steps(
         image, render["channel_axis"], render["tone_limits"], render["colour"], render["alpha"]
     )
     validate_stream_range(plane_offset, layout.n_planes)
+    if mode == "stack":
+        passes = runs[0][0].passes
+        copies, what = passes + 1, f"a stack of the input and {passes} passes"
+    elif mode == "sweep":  # every rendering, then their stack
+        copies, what = 2 * len(runs), f"a sweep of {len(runs)} renderings"
+    else:
+        copies, what = 1, "the rendering"
+    refuse_unaffordable_result(array.shape, array.dtype, copies, what)
     layout = dataclasses.replace(layout, plane_offset=plane_offset)
     steps = _steps(array, layout, scale, grey, runs, mode, workers)
     given = getattr(image, "dtype", None)

@@ -665,7 +665,7 @@ def _sweep(
     """The swept parameter and its values, each checked now rather than in the run."""
     values = parse_sweep_values(parameter, text)
     others = {name: value for name, value in edits.items() if name != parameter}
-    resolve_sweep(preset, others, 0, parameter, values)  # the swept field's value is replaced
+    resolve_sweep(preset, others, None, parameter, values)  # the swept field's value is replaced
     return parameter, list(values)
 
 

@@ -31,7 +31,7 @@ import numpy as np
 from . import metrics
 from ._engine import run_pass
 from .api import _prepare
-from .core.parameters import FLOAT_DECIMALS, SEED
+from .core.parameters import FLOAT_DECIMALS, SEED, as_float
 from .core.planes import normalise_channel_axis
 from .core.presets import DEFAULT_PRESET, resolve_parameters
 from .lazy import is_lazy
@@ -327,9 +327,10 @@ def _thresholds(thresholds: Any, centre: float) -> list[float]:
     for value in thresholds:
         if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
             raise TypeError(f"thresholds must hold numbers, got {value!r}")
-        if not (math.isfinite(value) and value >= 0):
+        number = as_float(value)
+        if not (math.isfinite(number) and number >= 0):
             raise ValueError(f"thresholds must be finite and >= 0, got {value!r}")
-        values.append(float(value))
+        values.append(number)
     if not values:
         raise ValueError("thresholds must not be empty")
     if any(b <= a for a, b in zip(values, values[1:])):

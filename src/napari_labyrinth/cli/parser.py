@@ -341,7 +341,7 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
         seed = options.pop("seed", None)
         if args.sweep is not None:
             name, values = _sweep_values(args, options)
-            resolve_sweep(preset, without_auto(options), 0 if seed is None else seed, name, values)
+            resolve_sweep(preset, without_auto(options), seed, name, values)
             options.update(parameter=name, values=values)
         else:
             resolve_parameters(preset, **without_auto(options))  # "auto": chosen per image

@@ -387,6 +387,9 @@ PARAMETERS: Mapping[str, Parameter] = MappingProxyType(
 #: Parameter names a preset or a caller may set.
 PARAMETER_NAMES = tuple(PARAMETERS)
 
+#: The seed of the random draws when none is given.
+DEFAULT_SEED = 0
+
 #: The seed of the random draws: not a parameter of the algorithm, but set beside them.
 SEED = Parameter(
     name="seed",
@@ -507,6 +510,15 @@ def _is_real(value: Any) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
 
 
+def as_float(value: numbers.Real) -> float:
+    """``float(value)`` of a real number; one beyond float64 (a huge ``int`` or ``Fraction``)
+    is an infinity of its sign, which every finite bound refuses by name."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+
+
 def _float(parameter: Parameter, value: Any) -> float:
     if parameter.automatic and is_auto(value):
         raise ValueError(
@@ -517,15 +529,15 @@ def _float(parameter: Parameter, value: Any) -> float:
     if not _is_real(value):
         also = f" or {AUTO!r}" if parameter.automatic else ""
         raise TypeError(f"{parameter.name} must be a real number{also}, got {value!r}")
-    value = float(value)
-    in_bounds = (parameter.low is None or value >= parameter.low) and (
-        parameter.high is None or value <= parameter.high
+    number = as_float(value)
+    in_bounds = (parameter.low is None or number >= parameter.low) and (
+        parameter.high is None or number <= parameter.high
     )
-    if not math.isfinite(value) or not in_bounds:
+    if not math.isfinite(number) or not in_bounds:
         raise ValueError(
             f"{parameter.name} must be finite and {parameter.bounds_text}, got {value!r}"
         )
-    return value
+    return number
 
 
 def _integer(parameter: Parameter, value: Any) -> int:
@@ -555,10 +567,10 @@ def _choice(parameter: Parameter, value: Any) -> str:
 def _tone(name: str, value: Any) -> float:
     if not _is_real(value):
         raise TypeError(f"{name} must hold real numbers, got {value!r}")
-    value = float(value)
-    if not (0.0 <= value <= 255.0):
+    number = as_float(value)
+    if not (0.0 <= number <= 255.0):
         raise ValueError(f"{name} must lie on the 0-255 tone scale, got {value!r}")
-    return value
+    return number
 
 
 def _is_sequence(value: Any) -> bool:

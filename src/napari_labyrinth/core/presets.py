@@ -39,6 +39,7 @@ from typing import Any
 from .parameters import (
     PARAMETER_NAMES,
     PARAMETERS,
+    DEFAULT_SEED,
     SEED,
     SWEEPABLE,
     LabyrinthParameters,
@@ -175,7 +176,9 @@ def resolve_sweep(
 ) -> list[tuple[LabyrinthParameters, int]]:
     """The (parameters, seed) of every rendering of a sweep of ``parameter``, validated.
 
-    ``values=None`` sweeps ``variance_threshold`` over the preset's V times
+    ``seed`` is the seed given beside the sweep, or None (then ``DEFAULT_SEED``);
+    a seed given to a sweep of seeds is refused, as any swept parameter given
+    beside its sweep. ``values=None`` sweeps ``variance_threshold`` over the preset's V times
     ``FIG3_FACTORS`` (the paper's Fig. 3); every other parameter needs values.
 
     Raises
@@ -183,9 +186,10 @@ def resolve_sweep(
     TypeError, ValueError
         Naming the parameter or the value at fault.
     """
-    if parameter not in SWEEPABLE:
+    if not isinstance(parameter, str) or parameter not in SWEEPABLE:
         raise ValueError(f"parameter must be one of {', '.join(SWEEPABLE)}; got {parameter!r}")
-    if parameter in overrides and overrides[parameter] is not None:
+    given = seed if parameter == "seed" else overrides.get(parameter)
+    if given is not None:
         raise TypeError(f"{parameter} is swept; do not also pass it as a keyword")
     if values is None and parameter == "variance_threshold":
         centre = resolve_parameters(preset, **overrides).variance_threshold
@@ -195,7 +199,7 @@ def resolve_sweep(
     if parameter == "seed":
         parameters = resolve_parameters(preset, **overrides)
         return [(parameters, SEED.validate(value)) for value in values]
-    seed = SEED.validate(seed)
+    seed = SEED.validate(DEFAULT_SEED if seed is None else seed)
     return [
         (resolve_parameters(preset, **dict(overrides, **{parameter: value})), seed)
         for value in values

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .parameters import as_float
 from .percentiles import integer_percentiles
 
 #: Percentiles of the finite values that set the default tone limits of
@@ -105,7 +106,7 @@ def validate_tone_limits(tone_limits: Any) -> tuple[float, float]:
     for value in tone_limits:
         if not isinstance(value, numbers.Real) or isinstance(value, (bool, np.bool_)):
             raise TypeError(f"tone_limits must hold real numbers, got {tone_limits!r}")
-    low, high = (float(value) for value in tone_limits)
+    low, high = (as_float(value) for value in tone_limits)
     if not (math.isfinite(low) and math.isfinite(high)) or not low < high:
         raise ValueError(f"tone_limits must be finite with low < high, got {tone_limits!r}")
     return low, high
