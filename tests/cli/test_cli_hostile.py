@@ -340,6 +340,54 @@ def test_sigint_leaves_no_temporary_and_sigkill_leftovers_are_removed_next_time(
     assert not left.exists() and not list(tmp_path.glob(f".{output.name}.*"))
 
 
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+@pytest.mark.parametrize("suffix", [".tif", ".zarr"])
+def test_sigterm_is_handled_as_ctrl_c_and_leaves_no_temporary(tmp_path, suffix):
+    # what kill, timeout and batch schedulers send: it ended the process at once, leaving
+    # the temporary store behind until the next write to the same output
+    pytest.importorskip("zarr")
+    output = tmp_path / f"out{suffix}"
+    child = _start_slow_write(tmp_path, output)
+    child.send_signal(signal.SIGTERM)
+    code = child.wait(timeout=120)
+    err = child.stderr.read().decode(errors="replace")
+    assert code == 143, err[-2000:]
+    assert "terminated" in err
+    assert not output.exists() and not list(tmp_path.glob(f".{output.name}.*"))
+
+
+def test_sigterm_and_sigint_handlers_are_restored_after_a_command(tmp_path):
+    image = tmp_path / "in.tif"
+    tifffile.imwrite(image, np.zeros((8, 8), np.uint8))
+    assert main(["render", str(image), "-o", str(tmp_path / "out.tif")]) == 0
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+@pytest.mark.parametrize("command", ["render", "demo"])
+def test_a_closed_stdout_stops_no_batch_and_prints_no_traceback(tmp_path, command):
+    # `| head -c 0`: the first output's path met a broken pipe, a traceback, and exit 1
+    # before the other files were rendered
+    images = []
+    for k in range(3):
+        images.append(tmp_path / f"in{k}.tif")
+        tifffile.imwrite(images[-1], np.full((16, 16), 40 * k, np.uint8))
+    out = tmp_path / "out"
+    arguments = ["render", *map(str, images), "-o", f"{out}/"]
+    if command == "demo":
+        arguments = ["demo", "-o", str(out)]
+    child = subprocess.Popen(
+        [sys.executable, "-m", "napari_labyrinth.cli", *arguments],
+        env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    child.stdout.close()  # the reader is gone before the first line
+    err = child.stderr.read().decode(errors="replace")
+    assert child.wait(timeout=300) == 0, err
+    assert "Traceback" not in err and "standard output cannot be written" in err
+    written = sorted(out.iterdir())
+    assert len(written) == (3 if command == "render" else 8), written
+
+
 class _InterruptedFinaliser:
     """Ctrl-C arriving while the garbage collector runs a finaliser: Python drops it."""
 

@@ -23,18 +23,27 @@ the commands.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from .interrupts import interrupts_recorded, raise_if_interrupted
+from .interrupts import interrupting_signal, interrupts_recorded, raise_if_interrupted
 
-__all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE", "PROG", "main"]
+__all__ = [
+    "EXIT_FAILED",
+    "EXIT_INTERRUPTED",
+    "EXIT_OK",
+    "EXIT_TERMINATED",
+    "EXIT_USAGE",
+    "PROG",
+    "main",
+]
 
 PROG = "napari-labyrinth"
 
-#: Exit codes.
-EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+#: Exit codes (interrupted: 128 + SIGINT, terminated: 128 + SIGTERM).
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 130, 143
 
 
 class UsageError(Exception):
@@ -61,7 +70,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     -------
     int
         Exit code: 0 on success, 1 if a file failed or an existing file was
-        not overwritten, 2 for a usage or parameter error, 130 on Ctrl-C.
+        not overwritten, 2 for a usage or parameter error, 130 on Ctrl-C, 143
+        on SIGTERM.
     """
     from .parser import build_parser
 
@@ -89,6 +99,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             print_error(str(exc))
             return EXIT_FAILED
         except KeyboardInterrupt:
+            if interrupting_signal() == signal.SIGTERM:
+                print_error("terminated")
+                return EXIT_TERMINATED
             print_error("interrupted")
             return EXIT_INTERRUPTED
 
@@ -145,3 +158,31 @@ def one_line(text: str) -> str:
 def print_error(message: str) -> None:
     """``napari-labyrinth: error: message`` on stderr."""
     print(f"{PROG}: error: {message}", file=sys.stderr, flush=True)
+
+
+_stdout_lost = False
+
+
+def print_output(line: str) -> None:
+    """``line`` on stdout (an output's path, a check's verdict).
+
+    The outputs are files: a stdout closed or full (``| head``, ``>
+    /dev/full``) stops nothing. The first failed write says so on stderr;
+    stdout then goes to the null device, lines after it included.
+    """
+    global _stdout_lost
+    if _stdout_lost:
+        return
+    try:
+        print(line, flush=True)
+    except OSError as exc:  # BrokenPipeError, ENOSPC
+        _stdout_lost = True
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, sys.stdout.fileno())  # what is still buffered is dropped there
+        os.close(null)
+        print(
+            f"{PROG}: standard output cannot be written ({exc.strerror or exc}): "
+            "the lines after this are not printed",
+            file=sys.stderr,
+            flush=True,
+        )

@@ -6,7 +6,16 @@ import argparse
 import os
 from pathlib import Path
 
-from . import EXIT_FAILED, EXIT_OK, Refused, UsageError, describe, make_directory, print_error
+from . import (
+    EXIT_FAILED,
+    EXIT_OK,
+    Refused,
+    UsageError,
+    describe,
+    make_directory,
+    print_error,
+    print_output,
+)
 
 #: Samples the demo renders, in order.
 DEMO_SAMPLES = ("nematic_schlieren", "camera")
@@ -91,7 +100,7 @@ def _write(path: Path, data, record, overwrite: bool) -> bool:
     except (OSError, ValueError) as exc:
         print_error(f"{path}: {describe(exc, path)}")
         return False
-    print(path.resolve(), flush=True)
+    print_output(str(path.resolve()))
     return True
 
 

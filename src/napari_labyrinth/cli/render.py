@@ -36,6 +36,7 @@ from . import (
     describe,
     make_directory,
     path_key,
+    print_output,
 )
 from .interrupts import raise_if_interrupted
 from .parser import render_options
@@ -221,7 +222,8 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
                 tqdm.write(f"{PROG}: error: {job.input}: {_failure(exc, job)}", file=sys.stderr)
             else:
                 rendered.append(job.output)
-                tqdm.write(str(job.output), file=sys.stdout)
+                with tqdm.external_write_mode(file=sys.stdout):  # the bars cleared first
+                    print_output(str(job.output))
             files_bar.update()
     finally:
         planes_bar.close()

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from . import EXIT_FAILED, EXIT_OK, PROG, Failed, describe
+from . import EXIT_FAILED, EXIT_OK, PROG, Failed, describe, print_output
 
 
 def reproduce_command(args: argparse.Namespace) -> int:
@@ -48,13 +48,14 @@ def reproduce_command(args: argparse.Namespace) -> int:
     what = f"{mode} of {path} ({record['function']}, preset {record['preset']}, seed "
     what += f"{record['seed']}; {versions})"
     if identical(written, again):
-        print(
+        print_output(
             f"{output}: identical bit for bit to a new rendering: {what}; "
-            f"shape {tuple(written.shape)}, {written.dtype}, {written.size} values",
-            flush=True,
+            f"shape {tuple(written.shape)}, {written.dtype}, {written.size} values"
         )
         return EXIT_OK
-    print(f"{PROG}: {output}: DIFFERS from a new rendering: {what}; {difference(written, again)}")
+    print_output(
+        f"{PROG}: {output}: DIFFERS from a new rendering: {what}; {difference(written, again)}"
+    )
     return EXIT_FAILED
 
 
