@@ -94,6 +94,13 @@ def test_a_sweep_record_calls_labyrinth_sweep():
         ({"schema": "other/1"}, "schema"),
         ({"mode": "stack"}, "do not match"),
         ({"arguments": None, "input": None, "version": None}, None),
+        ({"preset": None, "seed": None}, None),
+        ({"arguments": 3}, "arguments and input must be mappings"),
+        ({"input": None}, "arguments and input must be mappings"),
+        ({"input": {"name": None, "sha256": None}}, "input name must be a file name, got None"),
+        ({"input": {"name": 5, "sha256": None}}, "input name must be a file name, got 5"),
+        ({"input": {"name": "", "sha256": None}}, "input name must be a file name"),
+        ({"input": {"name": "a.png", "sha256": 5}}, "input sha256 must be a hex digest"),
     ],
 )
 def test_a_bad_record_is_refused_by_name(broken, message):

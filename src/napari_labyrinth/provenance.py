@@ -243,11 +243,23 @@ def check(record: Any) -> None:
         raise ProvenanceError(f"provenance schema {schema!r} is not {SCHEMA!r}")
     missing = [
         key
-        for key in ("version", "mode", "function", "arguments", "input")
+        for key in ("version", "mode", "function", "preset", "seed", "arguments", "input")
         if key not in record
     ]
     if missing:
         raise ProvenanceError(f"the provenance record lacks {', '.join(missing)}")
+    source = record["input"]
+    if not isinstance(record["arguments"], Mapping) or not isinstance(source, Mapping):
+        raise ProvenanceError("the provenance record's arguments and input must be mappings")
+    if not isinstance(source.get("name"), str) or not source["name"]:
+        raise ProvenanceError(
+            f"the provenance record's input name must be a file name, got {source.get('name')!r}"
+        )
+    if not isinstance(source.get("sha256"), (str, type(None))):
+        raise ProvenanceError(
+            f"the provenance record's input sha256 must be a hex digest or null, got "
+            f"{source['sha256']!r}"
+        )
     if record["mode"] not in FUNCTIONS or FUNCTIONS[record["mode"]] != record["function"]:
         raise ProvenanceError(
             f"the provenance record's mode {record['mode']!r} and function "

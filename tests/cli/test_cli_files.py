@@ -206,6 +206,22 @@ def test_reproduce_without_a_record_or_input_says_why(tmp_path, capsys):
     assert main(argv) == EXIT_OK
 
 
+def test_reproduce_of_a_record_naming_an_impossible_input_says_so(tmp_path, capsys):
+    # a name longer than any the file system holds: an OSError traceback from Path.exists
+    write_image(tmp_path / "in.tif", noise((8, 8)))
+    assert render(tmp_path / "in.tif", "-o", tmp_path / "out.tif", *OPTIONS) == EXIT_OK
+    from napari_labyrinth.io import ImageMetadata
+
+    record = read_provenance(tmp_path / "out.tif")
+    record["input"] = dict(record["input"], name="x" * 5000)
+    metadata = ImageMetadata(provenance=record)
+    write_image(tmp_path / "out.tif", read_image(tmp_path / "out.tif"), overwrite=True,
+                metadata=metadata)  # fmt: skip
+    capsys.readouterr()
+    assert main(["reproduce", str(tmp_path / "out.tif")]) == EXIT_FAILED
+    assert "give --input" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("source,counted", [("in.tif", "passes"), ("in.zarr", "planes written")])
 def test_progress_bars_say_what_they_count(tmp_path, capsys, monkeypatch, source, counted):
     from napari_labyrinth.cli import render as render_module

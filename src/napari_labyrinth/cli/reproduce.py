@@ -69,8 +69,11 @@ def find_input(output: Path, source: dict[str, Any], given: str | None) -> Path:
     name = Path(source["name"])
     candidates = [name, output.parent / name, output.parent / name.name]
     for path in candidates:
-        if path.exists():
-            return path
+        try:
+            if path.exists():
+                return path
+        except OSError:  # a name the file system cannot hold (too long): not there
+            continue
     tried = ", ".join(dict.fromkeys(str(path) for path in candidates))
     raise Failed(f"{output}: the recorded input {name} is not at {tried}; give --input")
 
