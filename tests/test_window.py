@@ -150,6 +150,18 @@ def test_find_window_names_bad_arguments():
         find_window(image, passes=-1)
 
 
+@pytest.mark.parametrize("shape", [(2, 2), (1, 40), (5, 2, 9)])
+def test_planes_too_small_to_measure_are_refused_naming_the_image(shape):
+    # the message named the internal "original" and the probe's mosaic, not the image
+    image = np.arange(np.prod(shape)).reshape(shape).astype(np.uint8)
+    plane = " x ".join(map(str, shape[-2:]))
+    with pytest.raises(ValueError, match=f"image planes must be at least 3 x 3 .* got {plane}"):
+        find_window(image)
+    with pytest.raises(ValueError, match="image planes must be at least 3 x 3"):
+        labyrinth(image, variance_threshold="auto")
+    assert labyrinth(image).shape == image.shape
+
+
 def test_auto_in_the_api_renders_with_the_chosen_v(camera_window):
     image, found = camera_window
     np.testing.assert_array_equal(

@@ -244,6 +244,12 @@ def find_window(
     values = _thresholds(thresholds, base.variance_threshold)
 
     planes, scale = _sampled_planes(image, channel_axis, alpha, colour, tone_limits, max_planes)
+    plane_shape = tuple(planes[0].shape[-2:])
+    if min(plane_shape) < 3:  # the measure of edges needs a pixel with all 8 neighbours
+        raise ValueError(
+            f"image planes must be at least 3 x 3 pixels to find the window of V (as "
+            f"variance_threshold='auto' does), got {plane_shape[0]} x {plane_shape[1]}"
+        )
     rng = np.random.default_rng(seed)
     where, size = _choose_crops(planes, scale, crops, crop_size, rng)
     originals = [
