@@ -219,6 +219,8 @@ RECORD = {
     "version": "0.1.0",
     "mode": "single",
     "function": "labyrinth",
+    "preset": "labyrinth",
+    "seed": 3,
     "arguments": {"preset": "labyrinth", "seed": 3, "tone_limits": [0.1, 1 / 3]},
     "input": {"name": "in.tif", "sha256": "ab", "shape": [4, 5], "dtype": "uint8"},
 }

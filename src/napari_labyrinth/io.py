@@ -29,7 +29,9 @@ import ctypes
 import dataclasses
 import errno
 import functools
+import logging
 import os
+import re
 import shutil
 import threading
 from collections.abc import Callable, Sequence
@@ -112,12 +114,13 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     Parameters
     ----------
     path : str or path-like
-        A ``.tif``/``.tiff`` file (read with tifffile: every page of the
-        first series, any dtype), a ``.png``, ``.jpg``/``.jpeg`` or
-        ``.bmp`` file (read with imageio's pillow plugin: grey images are
-        2-D, colour images ``(rows, columns, 3 or 4)``; palette images are
-        expanded to RGB(A)) or a zarr store (see :func:`open_image`), read
-        whole.
+        A ``.tif``/``.tiff`` file (read with tifffile: every page of its
+        one series, any dtype), a ``.png``, ``.jpg``/``.jpeg`` or ``.bmp``
+        file (read with imageio's pillow plugin: grey images are 2-D, colour
+        images ``(rows, columns, 3 or 4)``; palette images are expanded to
+        RGB, and a PNG transparency chunk (``tRNS``) becomes an alpha
+        channel: RGBA, or grey + alpha) or a zarr store (see
+        :func:`open_image`), read whole.
 
     Returns
     -------
@@ -128,9 +131,10 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     FileNotFoundError
         If the file does not exist.
     ImageFileError
-        (a ValueError) naming the file, for an unknown suffix or a file
-        that cannot be read (corrupt, truncated, not an image, a directory,
-        no permission).
+        (a ValueError) naming the file, for an unknown suffix, a file that
+        cannot be read (corrupt, truncated, not an image, a directory, no
+        permission), or one whose pixels would be read wrongly or lossily:
+        see :func:`read_metadata`.
     """
     path = Path(path)
     kind = image_format(path)
@@ -140,19 +144,25 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
         image = np.asarray(array[...])
         return _native(image)
     _require_file(path)
-    _refuse_unaffordable(path, declared_refusal(path, kind))
     try:
         if kind == "TIFF":
-            import tifffile
-
-            image = tifffile.imread(path)
+            with _tiff_file(path) as tif:
+                _refuse_unaffordable(path, declared_refusal(path, kind))
+                image = tif.asarray()
         else:
             import imageio.v3 as iio
 
-            image = iio.imread(path, plugin="pillow")
+            _refuse_unaffordable(path, declared_refusal(path, kind))
+            with pillow_header(path) as header:
+                mode, from_transparency = _pillow_mode(path, kind, header)
+            # imageio's own conversions otherwise (palette to RGB, PNG "I" to uint16)
+            image = iio.imread(path, plugin="pillow", mode=mode if from_transparency else None)
+    except ImageFileError:
+        raise
     except Exception as exc:  # readers raise many types for a bad file
         reason = _reason(exc)
-        if "can not handle the given uri" in reason:  # imageio's words for "not an image"
+        # imageio's and pillow_header's words for "not an image"
+        if "can not handle the given uri" in reason or "no header Pillow can read" in reason:
             reason = "not an image pillow can identify (corrupt, or another format)"
         raise ImageFileError(path, f"cannot read {kind} file: {reason}") from exc
     image = np.asarray(image)
@@ -422,6 +432,8 @@ def open_image(
     _require_file(path)
     try:
         shape, dtype, store_chunks = _tiff_layout(path)
+    except ImageFileError:
+        raise
     except Exception as exc:  # tifffile raises many types for a bad file
         raise ImageFileError(path, f"cannot read TIFF file: {_reason(exc)}") from exc
     if 0 in shape:
@@ -515,11 +527,10 @@ def _array_of_group(path: Path, group):
 
 
 def _tiff_layout(path: Path) -> tuple[tuple[int, ...], np.dtype, tuple[int, ...]]:
-    """Shape, dtype and chunks of the first series of a TIFF file, without reading pixels."""
-    import tifffile
+    """Shape, dtype and chunks of the image in a TIFF file, without reading pixels."""
     import zarr
 
-    with tifffile.imread(path, aszarr=True, series=0, level=0) as store:
+    with _tiff_file(path) as tif, tif.aszarr(series=0, level=0) as store:
         array = zarr.open(store, mode="r")
         return tuple(array.shape), np.dtype(array.dtype), tuple(array.chunks)
 
@@ -902,9 +913,29 @@ _PIL_COLOUR_MODES = {
     "LA": "grey + alpha",
     "PA": "palette + alpha",
     "P": "palette",
-    "CMYK": "CMYK",
-    "YCbCr": "YCbCr",
 }
+
+#: PIL image modes read as grey; a mode in neither table (CMYK, YCbCr) is refused.
+_PIL_GREY_MODES = ("1", "L", "I", "I;16", "I;16B")
+
+#: PNG colour types (the IHDR chunk's; PNG specification, section 11.2.2), in words.
+_PNG_COLOUR_TYPES = {0: "grey", 2: "RGB", 3: "palette", 4: "grey + alpha", 6: "RGBA"}
+
+#: TIFF photometric interpretations refused, with why and what to do ("is a ... TIFF").
+_TIFF_PHOTOMETRIC_REFUSALS = {
+    "MINISWHITE": (
+        "MINISWHITE TIFF (0 is white: its grey levels are inverted), which would be rendered "
+        "and written as MINISBLACK; convert it to a MINISBLACK grey TIFF first"
+    ),
+    "PALETTE": (
+        "palette (indexed colour) TIFF, whose colour map would be dropped; convert it to an "
+        "RGB TIFF first"
+    ),
+    "SEPARATED": "CMYK (separated) TIFF; CMYK is not supported: convert it to an RGB TIFF first",
+}
+
+#: The TIFF photometric interpretations read: grey (planes) and RGB(A) samples.
+_TIFF_PHOTOMETRICS = ("MINISBLACK", "RGB")
 
 #: OME-Zarr axis type of each axis letter (letters not here get no type).
 _OME_ZARR_TYPES = {"T": "time", "C": "channel", "Z": "space", "Y": "space", "X": "space"}
@@ -968,26 +999,35 @@ class ImageMetadata:
 def read_metadata(path: str | os.PathLike) -> ImageMetadata:
     """What an image file or zarr store says about its pixels, without reading them.
 
-    - TIFF (tifffile): the axes of the first series; its ``S`` axis is the
+    - TIFF (tifffile): the axes of its series; its ``S`` axis is the
       colour axis when the photometric interpretation is RGB; OME-TIFF
       axes and ``PhysicalSizeX/Y/Z``; the provenance record (an OME
       ``CommentAnnotation`` of namespace ``napari_labyrinth``, or the JSON
       description tifffile writes).
     - PNG, JPEG, BMP (Pillow): the colour type (``RGB``, ``RGBA``, grey +
-      alpha, palette: colour axis -1; grey: none); the record in a PNG
-      text chunk or a JPEG comment.
+      alpha, palette: colour axis -1; grey: none; a PNG transparency chunk
+      makes an RGB or palette image RGBA and a grey one grey + alpha); the
+      record in a PNG text chunk or a JPEG comment.
     - zarr: OME-Zarr ``multiscales`` axes and scale of the full-resolution
       level; the record in the attributes (of the group, or of the array).
 
     A plain TIFF or zarr array whose last axis has 3 or 4 entries and no
     colour metadata is marked ``ambiguous`` (it is read as planes).
 
+    Files whose pixels would be read wrongly or lossily are refused (here
+    and by :func:`read_image`), each with what to convert it to: CMYK
+    images; 16-bit PNGs other than plain grey (Pillow reads them as 8
+    bits); TIFF files that are not MINISBLACK grey or RGB (MINISWHITE,
+    palette, CMYK...), that hold more than one series (images of several
+    shapes, several OME images), or whose chain of pages is broken (a
+    truncated file, of which tifffile would read only the first pages).
+
     Raises
     ------
     FileNotFoundError
         If the file does not exist.
     ImageFileError
-        (a ValueError) naming the file, if it cannot be read.
+        (a ValueError) naming the file, if it cannot be read or is refused.
     """
     path = Path(path)
     kind = image_format(path)
@@ -1041,7 +1081,7 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
 
     from .provenance import KEY
 
-    with tifffile.TiffFile(path) as tif:
+    with _tiff_file(path) as tif:
         series = tif.series[0]
         axes, shape = series.axes, series.shape
         page = series.keyframe
@@ -1083,7 +1123,8 @@ def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
     from .provenance import KEY
 
     with pillow_header(path) as image:  # past Pillow's size limit: the budget judges size
-        mode = image.mode
+        stored = image.mode
+        mode, from_transparency = _pillow_mode(path, kind, image)
         if kind == "PNG":
             text = getattr(image, "text", {}).get(KEY)
         elif kind == "JPEG":
@@ -1093,13 +1134,180 @@ def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
     if text is not None and kind == "JPEG" and not text.lstrip().startswith(b"{"):
         text = None  # a comment of another program
     colour = _PIL_COLOUR_MODES.get(mode)
+    words = f"{kind} colour type {colour}" if colour else f"{kind} grey ({mode})"
+    if from_transparency:
+        read = _PIL_COLOUR_MODES.get(stored, f"grey ({stored})")
+        words = f"{kind} {read} with a transparency chunk (tRNS), read as {colour}"
     return ImageMetadata(
         axes="YXS" if colour else "YX",
         channel_axis=-1 if colour else None,
-        colour=f"{kind} colour type {colour}" if colour else f"{kind} grey ({mode})",
+        colour=words,
         provenance=_record(text, path),
         grey_alpha=mode == "LA",
     )
+
+
+def _pillow_mode(path: Path, kind: str, image) -> tuple[str, bool]:
+    """The Pillow mode a PNG, JPEG or BMP file is read in, refusing what Pillow misreads.
+
+    Parameters
+    ----------
+    path : Path
+        The file, for error messages.
+    kind : str
+        Its format by suffix (``"PNG"``, ``"JPEG"``, ``"BMP"``); the
+        format Pillow found decides the checks.
+    image : PIL.Image.Image
+        The file opened by Pillow (its header).
+
+    Returns
+    -------
+    mode : str
+        Pillow's mode of the file, or ``"RGBA"`` / ``"LA"`` for a PNG whose
+        transparency chunk (``tRNS``: transparent palette entries, or one
+        transparent grey level or colour) is read as an alpha channel.
+    from_transparency : bool
+        Whether ``mode`` is such a conversion (the pixels are read in it).
+
+    Raises
+    ------
+    ImageFileError
+        For a CMYK (or other unsupported mode) image, a 16-bit PNG that is
+        not plain grey (Pillow reads those as 8 bits), and a transparent
+        grey level that Pillow cannot read exactly (16-, 2- and 4-bit grey).
+    """
+    mode, found = image.mode, image.format or kind
+    if mode == "CMYK":
+        raise ImageFileError(
+            path, f"is a CMYK {found} file; CMYK is not supported: convert it to RGB first"
+        )
+    if mode not in _PIL_COLOUR_MODES and mode not in _PIL_GREY_MODES:
+        raise ImageFileError(
+            path,
+            f"is a {found} file in Pillow mode {mode}, which is not supported; "
+            "convert it to grey or RGB first",
+        )
+    if found != "PNG":
+        return mode, False
+    depth, colour_type = _png_header(path)
+    if depth == 16 and colour_type != 0:
+        raise ImageFileError(
+            path,
+            f"is a 16-bit {_PNG_COLOUR_TYPES.get(colour_type, 'colour')} PNG, which Pillow "
+            "reads only as 8 bits; convert it to a 16-bit TIFF first",
+        )
+    if image.info.get("transparency") is None:
+        return mode, False
+    if colour_type == 0 and depth != 8 and mode != "1":
+        # Pillow compares the key with the grey levels scaled to 8 bits (2, 4-bit)
+        # or cuts them to 8 bits (16-bit) to make the alpha channel
+        raise ImageFileError(
+            path,
+            f"is a {depth}-bit grey PNG with a transparent grey level (tRNS), which Pillow "
+            "cannot read exactly; convert it to a grey + alpha TIFF or 8-bit PNG first",
+        )
+    return ("RGBA" if mode in ("P", "RGB") else "LA"), True
+
+
+def _png_header(path: Path) -> tuple[int, int | None]:
+    """Bit depth and colour type of a PNG file, from its IHDR chunk (8 and None if unreadable).
+
+    The PNG specification fixes where they are: the IHDR chunk comes first,
+    after the 8-byte signature, and holds width, height (4 bytes each), bit
+    depth and colour type (1 byte each).
+    """
+    with open(path, "rb") as file:
+        head = file.read(26)
+    if len(head) < 26 or head[:8] != b"\x89PNG\r\n\x1a\n" or head[12:16] != b"IHDR":
+        return 8, None  # Pillow read a header: let it say what it found
+    return head[24], head[25]
+
+
+@contextlib.contextmanager
+def _tiff_file(path: Path):
+    """The TIFF file at ``path`` opened by tifffile, if it holds one intact image read exactly.
+
+    Yields
+    ------
+    tif : tifffile.TiffFile
+
+    Raises
+    ------
+    ImageFileError
+        If tifffile logs an error while the file is opened or the block
+        runs (a broken chain of pages: a truncated or corrupted file, whose
+        readable pages tifffile would return as the whole), if the file
+        holds more than one series (images of different shapes, or several
+        OME images), or if its photometric interpretation is not grey
+        (MINISBLACK) or RGB.
+    """
+    import tifffile
+
+    with _tifffile_errors(path), tifffile.TiffFile(path) as tif:
+        if not tif.series:
+            raise ImageFileError(path, "is a TIFF file holding no image")
+        if len(tif.series) > 1:
+            shapes = ", ".join(str(tuple(series.shape)) for series in tif.series[:4])
+            more = ", ..." if len(tif.series) > 4 else ""
+            raise ImageFileError(
+                path,
+                f"holds {len(tif.series)} images (TIFF series) of shapes {shapes}{more}; "
+                "only files holding one image are supported: save each image to its own file",
+            )
+        code = tif.series[0].keyframe.photometric
+        try:
+            photometric = tifffile.PHOTOMETRIC(code).name
+        except ValueError:
+            photometric = f"photometric code {int(code)}"
+        if photometric not in _TIFF_PHOTOMETRICS:
+            reason = _TIFF_PHOTOMETRIC_REFUSALS.get(
+                photometric,
+                f"{photometric} TIFF (photometric interpretation), which is not supported; "
+                "convert it to a MINISBLACK grey or RGB TIFF first",
+            )
+            raise ImageFileError(path, f"is a {reason}")
+        yield tif
+
+
+class _ThreadErrors(logging.Handler):
+    """Keeps the messages of the error records one thread logs."""
+
+    def __init__(self):
+        super().__init__(logging.ERROR)
+        self.thread = threading.get_ident()
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if record.thread == self.thread:
+            self.messages.append(record.getMessage())
+
+
+@contextlib.contextmanager
+def _tifffile_errors(path: Path):
+    """Raise an ImageFileError for errors tifffile logs in the block (it raises none for them).
+
+    tifffile reads what it can of a file whose chain of pages is broken and
+    only logs the break; the error records this thread logs meanwhile are
+    collected, and the first is the reason given.
+    """
+    logger = logging.getLogger("tifffile")
+    handler = _ThreadErrors()
+    logger.addHandler(handler)
+    try:
+        yield
+    except Exception as exc:
+        if handler.messages:  # the cause of what the block found wrong
+            raise ImageFileError(path, _corrupted(handler.messages)) from exc
+        raise
+    finally:
+        logger.removeHandler(handler)
+    if handler.messages:
+        raise ImageFileError(path, _corrupted(handler.messages))
+
+
+def _corrupted(messages: list[str]) -> str:
+    detail = re.sub(r"^<[^>]*>\s*", "", messages[0])  # tifffile's "<tifffile.TiffPages @8> "
+    return f"is a corrupted or truncated TIFF file (tifffile: {detail}); get an intact copy"
 
 
 def _zarr_metadata(path: Path) -> ImageMetadata:
