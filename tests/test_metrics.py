@@ -603,3 +603,106 @@ def test_the_local_mean_at_the_walls_is_scipys_gaussian_bit_for_bit(cases):
         assert 0.02 < walls.mean() < 0.6
         expected = plane > ndimage.gaussian_filter(plane, metrics.WINDOW_SIGMA, mode="reflect")
         np.testing.assert_array_equal(maps.above_local_mean(), expected & walls)
+
+
+# --- hostile parameters and magnitudes ------------------------------------------------------
+
+
+@pytest.mark.parametrize("exponent", [-1070, -1000, -700, -100, 100, 700])
+def test_orientation_of_a_plane_of_any_magnitude_is_that_of_its_tones(exponent):
+    """A power of two times a plane (down to subnormal values) has its angle and coherence;
+    the strength is scaled by the power's square, 0 or infinite beyond float64's range."""
+    tones = np.rint(255 * cholesteric_fingerprint(shape=(48, 40)).astype(np.float64))
+    expected = metrics.orientation(tones)
+    angle, coherence, strength = metrics.orientation(np.ldexp(tones, exponent))
+    np.testing.assert_array_equal(angle, expected[0])
+    np.testing.assert_array_equal(coherence, expected[1])
+    with np.errstate(over="ignore", under="ignore"):
+        np.testing.assert_array_equal(strength, np.ldexp(expected[2], 2 * exponent))
+
+
+def test_a_subnormal_plane_has_every_metric():
+    plane = np.full((8, 8), 1e-320)
+    angle, coherence, strength = metrics.orientation(plane)
+    assert np.all(np.isfinite(angle)) and np.all((0 <= coherence) & (coherence <= 1))
+    assert metrics.labyrinth_cover(plane) == 0.0
+    rendered = cholesteric_fingerprint(shape=(8, 8)).astype(np.float64)
+    assert set(metrics.describe(plane, rendered)) == set(metrics.METRICS)
+
+
+BAD_SIGMAS = [
+    (0, ValueError),
+    (-1, ValueError),
+    (1e-300, ValueError),
+    (math.inf, ValueError),
+    (math.nan, ValueError),
+    (1e300, ValueError),
+    (1e6, ValueError),
+    (None, TypeError),
+    ("a", TypeError),
+    (True, TypeError),
+]
+
+
+@pytest.mark.parametrize(("sigma", "error"), BAD_SIGMAS)
+def test_a_bad_sigma_is_named_with_its_range(sigma, error):
+    image = np.zeros((16, 16))
+    message = "sigma must be" if error is TypeError else f"sigma must be .*{metrics.SIGMA.high:g}"
+    with pytest.raises(error, match=message):
+        metrics.orientation(image, sigma=sigma)
+
+
+@pytest.mark.parametrize(("sigma", "error"), BAD_SIGMAS)
+def test_a_bad_contour_sigma_is_named_with_its_range_whatever_the_images(cases, sigma, error):
+    bounds = metrics.CONTOUR_SIGMA_PARAMETER.bounds_text
+    message = "contour_sigma must be" + ("" if error is TypeError else f" finite and {bounds}")
+    original = cases["original"]
+    for rendered in (cases["labyrinth"], original):  # with walls and without
+        with pytest.raises(error, match=message):
+            metrics.contour_alignment(original, rendered, contour_sigma=sigma)
+
+
+def test_the_bounds_of_sigma_are_usable(cases):
+    original, rendered = cases["original"][:40, :48], cases["labyrinth"][:40, :48]
+    for sigma in (metrics.SIGMA.low, metrics.SIGMA.high):
+        angle, coherence, strength = metrics.orientation(original, sigma)
+        assert np.all(np.isfinite(strength)) and np.all(coherence <= 1)
+        value = metrics.contour_alignment(original, rendered, contour_sigma=sigma)
+        assert math.isnan(value) or 0 <= value <= 1
+
+
+def test_a_wide_windows_tensor_in_column_tiles_is_the_whole_rows(monkeypatch):
+    """Past ``_FULL_WIDTH_RING_BYTES`` the rows are cut into tiles: the same numbers."""
+    plane = np.tile(cholesteric_fingerprint(shape=(24, 64)), (1, 40)).astype(np.float64)
+    radius = metrics._weights(2 * 40.0, np.float32).shape[0] - 1
+    assert metrics._ring_bytes(radius, plane.shape[1]) > metrics._FULL_WIDTH_RING_BYTES
+    tiled = metrics.orientation(plane, 40.0)
+    monkeypatch.setattr(metrics, "_FULL_WIDTH_RING_BYTES", math.inf)
+    for got, expected in zip(tiled, metrics.orientation(plane, 40.0)):
+        np.testing.assert_array_equal(got, expected)
+
+
+@pytest.mark.parametrize("workers", [-1, 0, 1.5, True, "2", "two", 10**6, 2**64])
+def test_bad_workers_get_the_message_of_labyrinth(cases, workers):
+    from napari_labyrinth import labyrinth
+
+    original, rendered = cases["original"], cases["labyrinth"]
+    with pytest.raises((TypeError, ValueError)) as expected:
+        labyrinth(original[:8, :8], workers=workers)
+    calls = (
+        lambda: metrics.describe(original, rendered, workers=workers),
+        lambda: metrics.describe_steps(original, rendered, workers=workers),
+        lambda: metrics.Comparison(original, workers=workers),
+    )
+    for call in calls:
+        with pytest.raises(expected.type, match="workers") as got:
+            call()
+        assert str(got.value) == str(expected.value)
+
+
+def test_workers_none_is_every_core_within_the_bound(cases):
+    assert 1 <= metrics._default_workers() <= metrics.WORKERS.high
+    original, rendered = cases["original"], cases["labyrinth"]
+    assert metrics.describe(original, rendered, workers=None) == metrics.describe(
+        original, rendered, workers=1
+    )

@@ -25,14 +25,18 @@ from __future__ import annotations
 
 import _thread
 import collections
+import dataclasses
 import math
 import os
+import sys
 import threading
 import weakref
 from collections.abc import Callable, Iterator
 from typing import Any, NamedTuple
 
 import numpy as np
+
+from .core.parameters import WORKERS, Parameter
 
 #: Window (Gaussian sigma, pixels) over which local statistics are averaged.
 WINDOW_SIGMA = 2.0
@@ -54,6 +58,31 @@ MIN_COVER = 0.01
 
 #: Gaussian sigma of the input's contours in :func:`contour_alignment`.
 CONTOUR_SIGMA = 4.0
+
+#: The Gaussian sigma (pixels) of a structure tensor's window: :func:`orientation`'s
+#: ``sigma``. Below the least, every window is one pixel wide (from about 0.08 on, the
+#: next weight is below float32's resolution). The largest, the scale of a large image's
+#: broadest contours, bounds the rows a thread holds smoothed (``16 * sigma + 2`` of a
+#: tile: ``_FULL_WIDTH_RING_BYTES``) and the time, which grows with sigma (at the
+#: largest, about a minute for a 2048 x 2048 plane on two cores).
+SIGMA = Parameter(
+    name="sigma",
+    kind="float",
+    paper=None,
+    low=0.01,
+    high=256.0,
+    label="sigma",
+    equation="metrics",
+    doc="Gaussian sigma (pixels) of the structure tensor's window",
+)
+
+#: :func:`contour_alignment`'s ``contour_sigma``: the bounds of :data:`SIGMA`.
+CONTOUR_SIGMA_PARAMETER = dataclasses.replace(
+    SIGMA,
+    name="contour_sigma",
+    label="contour sigma",
+    doc="Gaussian sigma (pixels) of the structure tensor of the input's contours",
+)
 
 #: The metrics, in the order :func:`describe` and :func:`describe_steps` give them.
 METRICS = (
@@ -129,11 +158,18 @@ def _same_shape(before: np.ndarray, after: np.ndarray) -> None:
         raise ValueError(f"original {before.shape} and rendered {after.shape} differ in shape")
 
 
+def _validate_workers(workers: Any) -> int | None:
+    """``workers`` checked as ``labyrinth(workers=...)`` checks it (:data:`WORKERS`);
+    None (every core) stays None."""
+    return None if workers is None else WORKERS.validate(workers)
+
+
 def _default_workers() -> int:
     try:
-        return max(1, len(os.sched_getaffinity(0)))
+        cores = len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - not on Linux
-        return max(1, os.cpu_count() or 1)
+        cores = os.cpu_count() or 1
+    return min(max(1, cores), WORKERS.high)
 
 
 def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) -> list:
@@ -466,7 +502,7 @@ class _Maps:
                 np.empty((1, 1), dtype=np.float32),
                 math.fsum(sums[:, 0]),
                 largest_square,
-                1.0 / scale**2,
+                _inverse_square(scale),
                 not sums[:, 2].any(),
                 float(sums[:, 3].max()),
             )
@@ -492,7 +528,7 @@ class _Maps:
                 fine32,
                 math.fsum(sums[:, 0]),
                 largest_square,
-                1.0 / scale**2,
+                _inverse_square(scale),
                 not sums[:, 2].any(),
                 float(sums[:, 3].max()),
             )
@@ -668,10 +704,25 @@ class _Fine(NamedTuple):
 
 
 def _float32_scale(largest: float) -> float:
-    """A power of two that brings values up to ``largest`` where float32 squares are safe."""
+    """A power of two that brings values up to ``largest`` where float32 squares are safe.
+
+    The scale is at most ``2**1023``, float64's largest power of two: a
+    subnormal ``largest`` (below ``2**-1022``) comes up to between ``2**-51``
+    and 2, still safe. Its square may leave float64's range: divide by the
+    scale twice (:func:`_inverse_square`), never by ``scale**2``.
+    """
     if not 0.0 < largest < math.inf or 2.0**-40 <= largest <= 2.0**40:
         return 1.0
-    return 2.0 ** -math.frexp(largest)[1]
+    return math.ldexp(1.0, min(-math.frexp(largest)[1], _LARGEST_EXPONENT))
+
+
+#: The exponent of float64's largest power of two.
+_LARGEST_EXPONENT = sys.float_info.max_exp - 1
+
+
+def _inverse_square(scale: float) -> float:
+    """``1 / scale**2`` for a scale of :func:`_float32_scale`, 0 where it underflows."""
+    return 1.0 / scale / scale
 
 
 def _kernels():
@@ -711,20 +762,37 @@ def _orientation_maps(plane, scale, sigma, mode, workers, needed, outputs):
     ``_metrics_kernels.orientation_band``), None for every pixel.
     """
     kernels = _kernels()
+    weights = _weights(2 * sigma, np.float32)
     if needed is None:
-        needed = np.ones((plane.shape[0], 1), dtype=bool)
+        radius = weights.shape[0] - 1
+        tiles = 1
+        if _ring_bytes(radius, plane.shape[1]) > _FULL_WIDTH_RING_BYTES:
+            tiles = kernels.tensor_tiles(plane.shape[1], radius)
+        needed = np.ones((plane.shape[0], tiles), dtype=bool)
     _in_bands(
         kernels.orientation_band,
         plane.shape[0],
         workers,
         plane,
         scale,
-        _weights(2 * sigma, np.float32),
+        weights,
         mode,
         needed,
         *outputs,
     )
     return outputs
+
+
+#: Bytes of the ring of smoothed rows a thread holds (``_metrics_kernels._tensor_tile``)
+#: above which a whole plane's tensor is computed in column tiles: a wide sigma's ring
+#: grows with it, the tiles' recomputed margins cost time (a fifth at sigma 2).
+_FULL_WIDTH_RING_BYTES = 16 * 2**20
+
+
+def _ring_bytes(radius: int, tile: int) -> int:
+    """Bytes of the ring of ``_metrics_kernels._tensor_tile`` for a kernel ``radius`` and a
+    ``tile`` of columns."""
+    return 3 * (2 * radius + 2) * tile * np.dtype(np.float32).itemsize
 
 
 def _tiles_with(walls: np.ndarray, tiles: int, workers) -> np.ndarray:
@@ -922,18 +990,50 @@ def orientation(image, sigma: float = WINDOW_SIGMA):
 
     The upsampling is ``scipy.ndimage.zoom(plane, 2, order=1, grid_mode=True,
     mode="nearest")``; only the tensor's samples on the original grid are
-    computed, in float32 (relative error about 1e-7).
+    computed, in float32 (relative error about 1e-7), on the plane times a
+    power of two: the angle and the coherence of a plane of any magnitude
+    are those of a plane of tones, and the strength is divided back by the
+    power's square (infinite, or 0, where it leaves float64's range).
+
+    Parameters
+    ----------
+    image : array_like
+        A 2-D plane of real numbers, at least 3 x 3.
+    sigma : float, optional
+        The window's Gaussian sigma, in original pixels, within the bounds
+        of :data:`SIGMA`.
+
+    Returns
+    -------
+    angle, coherence, strength : ndarray
+        float64 planes shaped as ``image``.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For an ``image`` that is not such a plane or a ``sigma`` out of bounds.
     """
+    sigma = SIGMA.validate(sigma)
     plane = _float_plane(_plane(image))
     largest = float(np.max(np.abs(plane), where=np.isfinite(plane), initial=0.0))
     scale = _float32_scale(largest)
+    if scale != 1.0:
+        # scaled in float64 first: exact, where the kernel's interpolation of subnormal
+        # values would round them to a few bits
+        plane = plane * scale
     outputs = tuple(np.empty(plane.shape, dtype=np.float32) for _ in range(4))
-    _orientation_maps(plane, scale, sigma, _kernels().TENSOR_COMPONENTS, None, None, outputs)
-    jrr, jrc, jcc = (component / scale**2 for component in outputs[:3])  # float64, exact
+    _orientation_maps(plane, 1.0, sigma, _kernels().TENSOR_COMPONENTS, None, None, outputs)
+    # the angle and the coherence do not depend on the scale: taken before it is undone
+    jrr, jrc, jcc = (component.astype(np.float64) for component in outputs[:3])
     trace = jrr + jcc
     difference = np.sqrt((jrr - jcc) ** 2 + 4 * jrc**2)
-    coherence = np.where(trace > 0, (difference / np.maximum(trace, 1e-12)) ** 2, 0.0)
+    coherence = np.divide(difference, trace, out=np.zeros_like(trace), where=trace > 0) ** 2
+    # a window of one pixel makes a rank-one tensor, whose float32 rounding can put the
+    # ratio a few ulps above 1
+    np.minimum(coherence, 1.0, out=coherence)
     angle = 0.5 * np.arctan2(2 * jrc, jrr - jcc)
+    with np.errstate(over="ignore", under="ignore"):  # beyond float64's range: inf or 0
+        trace = trace / scale / scale
     return angle, coherence, trace
 
 
@@ -978,7 +1078,11 @@ def contour_alignment(original, rendered, *, contour_sigma: float = CONTOUR_SIGM
     ``contour_sigma`` below ``_DECIMATED_SIGMA`` = 1 pixel takes the doubled
     grid's): the value moves by less than 1.5e-3 (relative) from the
     doubled grid's on the study images.
+
+    ``contour_sigma`` (pixels) is checked first, against the bounds of
+    :data:`SIGMA`: a TypeError or ValueError names it.
     """
+    contour_sigma = CONTOUR_SIGMA_PARAMETER.validate(contour_sigma)
     before = _plane(original, "original")
     after = _plane(rendered, "rendered")
     _same_shape(before, after)
@@ -1076,8 +1180,9 @@ class Comparison:
         The input plane: 2-D, real dtype, at least 3 x 3, on the tone scale
         of the renderings.
     workers : int, optional
-        Threads the heavy maps are split between (bands of rows); all cores
-        by default. The results do not depend on it.
+        Threads the heavy maps are split between (bands of rows): None for
+        every core, else within the bounds of ``labyrinth(workers=...)``
+        (``core.parameters.WORKERS``). The results do not depend on it.
 
     Examples
     --------
@@ -1092,6 +1197,7 @@ class Comparison:
     """
 
     def __init__(self, original, *, workers: int | None = None):
+        workers = _validate_workers(workers)
         array = _plane(original, "original")
         self._pool = _SHARED_POOL
         plane = self._pool.take(array.shape, _kernel_dtype(array.dtype))
@@ -1176,7 +1282,7 @@ def describe_steps(
     it: a stack's passes compute them once. :class:`Comparison` does the
     same without comparing the original each time.
     """
-    return _comparison_of(original, workers).describe_steps(rendered)
+    return _comparison_of(original, _validate_workers(workers)).describe_steps(rendered)
 
 
 def describe(original, rendered, *, workers: int | None = None) -> dict[str, float]:
@@ -1185,7 +1291,7 @@ def describe(original, rendered, *, workers: int | None = None) -> dict[str, flo
     The keys are :data:`METRICS`, in that order. The metrics share the maps
     they have in common, and the maps of the last ``original`` are kept for
     the next renderings of it (see :func:`describe_steps`). ``workers``:
-    threads, all cores by default; the results do not depend on it.
+    threads, as for :class:`Comparison`; the results do not depend on it.
     """
     return dict(describe_steps(original, rendered, workers=workers))
 

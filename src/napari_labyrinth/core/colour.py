@@ -200,7 +200,8 @@ def recolour(
                 np.where(difference < 0, (info.min - new) / difference, np.inf),
             )
         factor = np.clip(np.minimum(factor, room.min(axis=-1, keepdims=True)), 0.0, None)
-    result = new + difference * factor
+    with np.errstate(over="ignore"):  # a brighter channel beyond float64's: clipped below
+        result = new + difference * factor
     return np.moveaxis(representable(result, dtype), -1, axis)
 
 
