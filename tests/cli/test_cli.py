@@ -388,6 +388,7 @@ def test_bad_file_in_a_batch(tmp_path, capsys):
         ["--set", "tones=1,2"],
         ["--passes", "5000"],
         ["--include-centre", "maybe"],
+        ["--sweep", "variance_threshold=auto,0.04"],
     ],
 )
 def test_bad_parameter_is_one_line_without_traceback(tmp_path, capsys, bad):
@@ -417,6 +418,18 @@ def test_bad_parameter_is_one_line_without_traceback(tmp_path, capsys, bad):
 def test_usage_errors_exit_2(argv, capsys):
     assert main(argv) == 2
     assert "Traceback" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "output,said", [("", "is empty"), ("  ", "is empty"), ("-", "not supported")]
+)
+def test_an_empty_or_dash_output_is_refused(tmp_path, capsys, monkeypatch, output, said):
+    # "" wrote into the current directory, "-" made a directory named "-"
+    write_image(tmp_path / "in.png", gradient_image(np.uint8))
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", "in.png", "-o", output]) == 2
+    assert said in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.png"]
 
 
 def test_unsupported_output_format(tmp_path, capsys):

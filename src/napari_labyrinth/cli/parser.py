@@ -172,7 +172,8 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
         metavar=("LOW", "HIGH"),
         help=(
             "values mapped to tones 0 and 255 (default: 0 255 for uint8, else the 0.5th "
-            "and 99.5th percentiles, which takes extra reads of a lazily rendered input)"
+            "and 99.5th percentiles, which takes extra reads of a lazily rendered input); "
+            "values outside them are clipped to them where a pixel changes"
         ),
     )
     render.add_argument(

@@ -246,6 +246,10 @@ def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
     from ..io import FORMATS_WITHOUT_METADATA, LOSSY_FORMATS, image_format, zarr_root
 
     inputs = [Path(p) for p in args.inputs]
+    if not args.output.strip():  # Path("") is the current directory
+        raise UsageError("-o/--output is empty: name an output file or directory")
+    if args.output == "-":
+        raise UsageError("-o - (standard output) is not supported: name an output file")
     output = Path(args.output)
     variant = "stack" if args.stack else "sweep" if args.sweep is not None else None
     to_zarr = output.suffix.lower() == ".zarr"

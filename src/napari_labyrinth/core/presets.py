@@ -37,13 +37,15 @@ from types import MappingProxyType
 from typing import Any
 
 from .parameters import (
+    AUTO,
+    DEFAULT_SEED,
     PARAMETER_NAMES,
     PARAMETERS,
-    DEFAULT_SEED,
     SEED,
     SWEEPABLE,
     LabyrinthParameters,
     equal_tone_ranges,
+    is_auto,
     make_parameters,
 )
 
@@ -196,6 +198,11 @@ def resolve_sweep(
         values = [round(centre * factor, 6) for factor in FIG3_FACTORS]
     if isinstance(values, (str, bytes)) or not hasattr(values, "__len__") or len(values) == 0:
         raise ValueError(f"values must be a non-empty sequence, got {values!r}")
+    if any(is_auto(value) for value in values):
+        raise ValueError(
+            f"{parameter} values of a sweep are numbers, not {AUTO!r} (which chooses one "
+            f"value from the image): sweep numbers, or render once with {parameter}={AUTO!r}"
+        )
     if parameter == "seed":
         parameters = resolve_parameters(preset, **overrides)
         return [(parameters, SEED.validate(value)) for value in values]
