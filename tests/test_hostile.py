@@ -140,6 +140,15 @@ NAMED_ERRORS += [
     (lambda: labyrinth_sweep(IMAGE, "seed", [1], seed=3), TypeError, "seed is swept"),
     (lambda: labyrinth_sweep(IMAGE, "seed", [1], seed=0), TypeError, "seed is swept"),
     (lambda: labyrinth_sweep(IMAGE, ["seed"], [1]), ValueError, "parameter must be one of"),
+    # sets and mappings have no order of the caller's: their limits came in hash order
+    (lambda: labyrinth(IMAGE, tone_limits={0, 200}), TypeError, "tone_limits must be None or"),
+    (lambda: labyrinth(IMAGE, tone_ranges={0, 100, 255}), TypeError, "tone_ranges must be a"),
+    (lambda: labyrinth(IMAGE, tone_ranges={0: 1, 255: 2}), TypeError, "tone_ranges must be a"),
+    (
+        lambda: labyrinth(IMAGE, tone_ranges=[0, 100, 255], tones={(0, 100), (100, 255)}),
+        TypeError,
+        "tones must be a sequence",
+    ),
 ]
 
 
@@ -147,6 +156,14 @@ NAMED_ERRORS += [
 def test_bad_input_gets_an_error_that_names_it(call, error, match):
     with pytest.raises(error, match=match):
         call()
+
+
+def test_tone_limits_of_zero_d_arrays_are_their_numbers():
+    image = IMAGE.astype(np.float32)
+    np.testing.assert_array_equal(
+        labyrinth(image, tone_limits=(np.array(10.0), np.array(200))),
+        labyrinth(image, tone_limits=(10.0, 200)),
+    )
 
 
 def test_a_zero_d_array_holding_a_count_is_that_count():

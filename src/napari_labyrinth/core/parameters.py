@@ -525,7 +525,7 @@ def _float(parameter: Parameter, value: Any) -> float:
             f"{parameter.name}={AUTO!r} is chosen from the image: pass the image to "
             "labyrinth() or find_window() rather than building parameters without it"
         )
-    value = _scalar(value)
+    value = scalar(value)
     if not _is_real(value):
         also = f" or {AUTO!r}" if parameter.automatic else ""
         raise TypeError(f"{parameter.name} must be a real number{also}, got {value!r}")
@@ -541,7 +541,7 @@ def _float(parameter: Parameter, value: Any) -> float:
 
 
 def _integer(parameter: Parameter, value: Any) -> int:
-    value = _scalar(value)
+    value = scalar(value)
     if not _is_integer(value):
         raise TypeError(f"{parameter.name} must be an integer, got {value!r}")
     value = int(value)
@@ -574,8 +574,9 @@ def _tone(name: str, value: Any) -> float:
 
 
 def _is_sequence(value: Any) -> bool:
-    """Whether ``value`` is a sequence of values (a 0-d array, a string or a number is not)."""
-    if isinstance(value, (str, bytes)):
+    """Whether ``value`` is a sequence of values (a 0-d array, a string or a number is not,
+    nor a set or a mapping: their order is not the caller's)."""
+    if isinstance(value, (str, bytes, set, frozenset, Mapping)):
         return False
     try:
         len(value)
@@ -584,7 +585,7 @@ def _is_sequence(value: Any) -> bool:
     return True
 
 
-def _scalar(value: Any) -> Any:
+def scalar(value: Any) -> Any:
     """The number a 0-d array holds; any other value as it is."""
     if isinstance(value, np.ndarray) and value.ndim == 0:
         return value[()]
@@ -592,7 +593,7 @@ def _scalar(value: Any) -> Any:
 
 
 def _tone_ranges(parameter: Parameter, value: Any) -> tuple[float, ...]:
-    value = _scalar(value)
+    value = scalar(value)
     if _is_integer(value):
         if not parameter.low <= value <= parameter.high:
             raise ValueError(

@@ -5,11 +5,12 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from .parameters import as_float
+from .parameters import as_float, scalar
 from .percentiles import integer_percentiles
 
 #: Percentiles of the finite values that set the default tone limits of
@@ -98,15 +99,16 @@ def validate_tone_limits(tone_limits: Any) -> tuple[float, float]:
         Naming ``tone_limits``.
     """
     if (
-        isinstance(tone_limits, (str, bytes))
+        isinstance(tone_limits, (str, bytes, set, frozenset, Mapping))  # unordered: refused
         or not _has_length(tone_limits)
         or len(tone_limits) != 2
     ):
         raise TypeError(f"tone_limits must be None or (low, high), got {tone_limits!r}")
-    for value in tone_limits:
+    values = [scalar(value) for value in tone_limits]  # a 0-d array is its number
+    for value in values:
         if not isinstance(value, numbers.Real) or isinstance(value, (bool, np.bool_)):
             raise TypeError(f"tone_limits must hold real numbers, got {tone_limits!r}")
-    low, high = (as_float(value) for value in tone_limits)
+    low, high = (as_float(value) for value in values)
     if not (math.isfinite(low) and math.isfinite(high)) or not low < high:
         raise ValueError(f"tone_limits must be finite with low < high, got {tone_limits!r}")
     return low, high
