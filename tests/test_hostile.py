@@ -142,6 +142,12 @@ NAMED_ERRORS += [
     (lambda: labyrinth_sweep(IMAGE, ["seed"], [1]), ValueError, "parameter must be one of"),
     # sets and mappings have no order of the caller's: their limits came in hash order
     (lambda: labyrinth(IMAGE, tone_limits={0, 200}), TypeError, "tone_limits must be None or"),
+    (lambda: find_window(IMAGE, workers=2000), ValueError, "workers must be between 1 and 1024"),
+    (
+        lambda: labyrinth(np.ma.masked_array(IMAGE, mask=IMAGE > 128)),
+        TypeError,
+        "image is a masked array with masked pixels",
+    ),
     (lambda: labyrinth(IMAGE, tone_ranges={0, 100, 255}), TypeError, "tone_ranges must be a"),
     (lambda: labyrinth(IMAGE, tone_ranges={0: 1, 255: 2}), TypeError, "tone_ranges must be a"),
     (

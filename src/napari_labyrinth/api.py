@@ -666,6 +666,12 @@ def _validate_image(image: Any) -> np.ndarray:
     """
     if isinstance(image, (str, bytes)) or image is None:
         raise TypeError(f"image must be an array, got {type(image).__name__}")
+    if np.ma.is_masked(image):  # its data would be rendered and its mask lost
+        raise TypeError(
+            "image is a masked array with masked pixels, whose mask the rendering would "
+            "lose: pass image.filled(np.nan) (a float image: NaN pixels are kept as they are "
+            "and never count as neighbours) or image.data"
+        )
     try:
         array = np.asarray(image)
     except (ValueError, TypeError) as exc:  # ragged nested lists, objects numpy refuses

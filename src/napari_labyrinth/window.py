@@ -31,7 +31,7 @@ import numpy as np
 from . import metrics
 from ._engine import run_pass
 from .api import _prepare
-from .core.parameters import FLOAT_DECIMALS, SEED, as_float
+from .core.parameters import FLOAT_DECIMALS, SEED, WORKERS, as_float
 from .core.planes import normalise_channel_axis
 from .core.presets import DEFAULT_PRESET, resolve_parameters
 from .lazy import is_lazy
@@ -240,7 +240,9 @@ def find_window(
     crops = _positive_int("crops", crops, 1)
     crop_size = _positive_int("crop_size", crop_size, 16)
     max_planes = _positive_int("max_planes", max_planes, 1)
-    workers = (os.cpu_count() or 1) if workers is None else _positive_int("workers", workers, 1)
+    if workers is None:
+        workers = min(os.cpu_count() or 1, WORKERS.high)
+    workers = WORKERS.validate(workers)
     values = _thresholds(thresholds, base.variance_threshold)
 
     planes, scale = _sampled_planes(image, channel_axis, alpha, colour, tone_limits, max_planes)
