@@ -118,8 +118,9 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
         one series, any dtype), a ``.png``, ``.jpg``/``.jpeg`` or ``.bmp``
         file (read with imageio's pillow plugin: grey images are 2-D, colour
         images ``(rows, columns, 3 or 4)``; palette images are expanded to
-        RGB, and a PNG transparency chunk (``tRNS``) becomes an alpha
-        channel: RGBA, or grey + alpha) or a zarr store (see
+        RGB, a PNG transparency chunk (``tRNS``) becomes an alpha channel:
+        RGBA, or grey + alpha; an EXIF orientation is applied, so the
+        pixels are upright as viewers show them) or a zarr store (see
         :func:`open_image`), read whole.
 
     Returns
@@ -156,7 +157,9 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
             with pillow_header(path) as header:
                 mode, from_transparency = _pillow_mode(path, kind, header)
             # imageio's own conversions otherwise (palette to RGB, PNG "I" to uint16)
-            image = iio.imread(path, plugin="pillow", mode=mode if from_transparency else None)
+            image = iio.imread(
+                path, plugin="pillow", mode=mode if from_transparency else None, rotate=True
+            )
     except ImageFileError:
         raise
     except Exception as exc:  # readers raise many types for a bad file
@@ -194,8 +197,12 @@ def write_image(
         Replace an existing file. Without it an existing file is left as it
         is, even if it appears while this call runs.
     metadata : ImageMetadata, optional
-        Axes, pixel sizes and provenance record to store with the pixels
-        (see :func:`read_metadata`); BMP files hold none.
+        Axes, pixel sizes, colour samples, resolution and provenance record
+        to store with the pixels (see :func:`read_metadata`); BMP files
+        hold no record. A TIFF file stores the colour samples as they were
+        read (photometric RGB or grey, extra samples, samples planar when
+        the colour axis is third from last); a PNG, JPEG or BMP file holds
+        no extra sample but unassociated alpha, and the others are refused.
 
     Returns
     -------
@@ -208,7 +215,8 @@ def write_image(
         If ``path`` exists and ``overwrite`` is False.
     ImageFileError
         (a ValueError) naming the file, for an unknown suffix, a directory,
-        or an array that the format cannot store (it suggests ``.tif``).
+        or an array (or extra samples) that the format cannot store (it
+        suggests ``.tif``).
     OSError
         If writing fails (no space, no permission); no temporary file is
         left behind.
@@ -223,7 +231,7 @@ def write_image(
     path = Path(path)
     kind = image_format(path)
     array = np.asarray(array)
-    _check_storable(path, kind, array)
+    _check_storable(path, kind, array, metadata)
     if path.is_dir():
         raise ImageFileError(path, "is a directory")
     if not overwrite and os.path.lexists(path):
@@ -280,13 +288,22 @@ def _reason(exc: BaseException) -> str:
     return " ".join(text.split())
 
 
-def _check_storable(path: Path, kind: str, array: Any) -> None:
+def _check_storable(
+    path: Path, kind: str, array: Any, metadata: ImageMetadata | None = None
+) -> None:
     if array.size == 0:
         raise ImageFileError(path, f"cannot write an empty image (shape {array.shape})")
     if kind in ("TIFF", "ZARR"):
         if array.dtype.kind not in "biuf" and array.dtype.kind != "c":
             raise ImageFileError(path, f"{kind} cannot store {array.dtype} data")
         return
+    extra = () if metadata is None else metadata.extra_samples
+    if any(sample != "unassalpha" for sample in extra):
+        raise ImageFileError(
+            path,
+            f"cannot store the extra samples {', '.join(extra)} of the input as {kind} "
+            f"({kind} holds only unassociated alpha); use a .tif file",
+        )
     grey = array.ndim == 2
     channels = array.shape[-1] if array.ndim == 3 else None
     if kind == "PNG":
@@ -330,7 +347,11 @@ def _write(
         return
     import imageio.v3 as iio
 
-    options = {"quality": 95} if kind == "JPEG" else {}
+    options: dict[str, Any] = {"quality": 95} if kind == "JPEG" else {}
+    resolution = None if metadata is None else metadata.resolution
+    if resolution is not None and resolution[2] is not None:  # Pillow writes dots per inch
+        per_inch = _PER_INCH[resolution[2]]
+        options["dpi"] = (resolution[0] * per_inch, resolution[1] * per_inch)
     record = metadata.provenance if metadata is not None else None
     if record is not None and kind == "PNG":
         from PIL.PngImagePlugin import PngInfo
@@ -666,7 +687,7 @@ def write_array(
     else:
         from .lazy import computing
 
-        _check_writable(path, kind, array, overwrite)
+        _check_writable(path, kind, array, overwrite, metadata)
         with computing():
             computed = np.asarray(array.compute())
         write_image(path, computed, overwrite=overwrite, metadata=metadata)
@@ -681,8 +702,10 @@ def _planes(shape: tuple[int, ...], plane_axes: Sequence[int]) -> int:
     return int(np.prod([size for axis, size in enumerate(shape) if axis not in axes]))
 
 
-def _check_writable(path: Path, kind: str, array: Any, overwrite: bool) -> None:
-    _check_storable(path, kind, array)
+def _check_writable(
+    path: Path, kind: str, array: Any, overwrite: bool, metadata: ImageMetadata | None = None
+) -> None:
+    _check_storable(path, kind, array, metadata)
     if path.is_dir():
         raise ImageFileError(path, "is a directory")
     if not overwrite and os.path.lexists(path):
@@ -934,8 +957,19 @@ _TIFF_PHOTOMETRIC_REFUSALS = {
     "SEPARATED": "CMYK (separated) TIFF; CMYK is not supported: convert it to an RGB TIFF first",
 }
 
-#: The TIFF photometric interpretations read: grey (planes) and RGB(A) samples.
+#: The TIFF photometric interpretations read: grey (planes, or grey and extra samples) and
+#: RGB(A) samples.
 _TIFF_PHOTOMETRICS = ("MINISBLACK", "RGB")
+
+#: TIFF extra samples (tifffile's ``EXTRASAMPLE`` names, lower case) that are alpha.
+_ALPHA_SAMPLES = ("unassalpha", "assocalpha")
+
+#: Units of ``ImageMetadata.resolution`` (tifffile's ``RESUNIT`` names, lower case) per inch.
+_PER_INCH = {"inch": 1.0, "centimeter": 2.54, "millimeter": 25.4, "micrometer": 25400.0}
+
+#: The EXIF orientation tag, and the orientations whose transformation swaps rows and columns.
+_EXIF_ORIENTATION = 0x0112
+_EXIF_TRANSPOSING = (5, 6, 7, 8)
 
 #: OME-Zarr axis type of each axis letter (letters not here get no type).
 _OME_ZARR_TYPES = {"T": "time", "C": "channel", "Z": "space", "Y": "space", "X": "space"}
@@ -969,7 +1003,19 @@ class ImageMetadata:
         A last axis of 3 or 4 that no metadata names colour or not: it is
         read as planes, and ``channel_axis=-1`` reads it as colour.
     grey_alpha : bool
-        A grey image with an alpha channel (the last axis: grey, alpha).
+        A grey image with an alpha channel (the colour axis: grey, alpha).
+    extra_samples : tuple of str
+        What the colour axis holds after its grey or RGB samples, one
+        TIFF extra sample each, as tifffile names them (lower case):
+        ``"unassalpha"`` (alpha), ``"assocalpha"`` (alpha that the colours
+        are premultiplied by) or ``"unspecified"``. A TIFF output stores
+        them back.
+    resolution : tuple or None
+        ``(x, y, unit)``: pixels per unit along X and Y as the file states
+        them (TIFF resolution tags, PNG ``pHYs``, JPEG or BMP density),
+        ``unit`` one of ``"inch"``, ``"centimeter"`` (or tifffile's
+        ``"millimeter"``, ``"micrometer"``) or None (an aspect ratio only);
+        None when the file states none.
     """
 
     axes: str | None = None
@@ -980,6 +1026,8 @@ class ImageMetadata:
     provenance: dict | None = None
     ambiguous: bool = False
     grey_alpha: bool = False
+    extra_samples: tuple[str, ...] = ()
+    resolution: tuple[float, float, str | None] | None = None
 
     def for_output(self, extra_axis: str | None, provenance: dict | None) -> ImageMetadata:
         """The metadata of a rendering of this image.
@@ -999,14 +1047,18 @@ class ImageMetadata:
 def read_metadata(path: str | os.PathLike) -> ImageMetadata:
     """What an image file or zarr store says about its pixels, without reading them.
 
-    - TIFF (tifffile): the axes of its series; its ``S`` axis is the
-      colour axis when the photometric interpretation is RGB; OME-TIFF
-      axes and ``PhysicalSizeX/Y/Z``; the provenance record (an OME
-      ``CommentAnnotation`` of namespace ``napari_labyrinth``, or the JSON
-      description tifffile writes).
+    - TIFF (tifffile): the axes of its series; its ``S`` axis (samples
+      per pixel, contiguous or planar) is the colour axis: RGB and extra
+      samples, or grey and extra samples (grey + alpha when the one extra
+      sample is alpha); OME-TIFF axes and ``PhysicalSizeX/Y/Z``; the
+      resolution tags; the provenance record (an OME ``CommentAnnotation``
+      of namespace ``napari_labyrinth``, or the JSON description tifffile
+      writes).
     - PNG, JPEG, BMP (Pillow): the colour type (``RGB``, ``RGBA``, grey +
       alpha, palette: colour axis -1; grey: none; a PNG transparency chunk
       makes an RGB or palette image RGBA and a grey one grey + alpha); the
+      resolution in dots per inch; an EXIF orientation, applied when the
+      pixels are read (said in ``colour``; the resolution follows it); the
       record in a PNG text chunk or a JPEG comment.
     - zarr: OME-Zarr ``multiscales`` axes and scale of the full-resolution
       level; the record in the attributes (of the group, or of the array).
@@ -1018,7 +1070,8 @@ def read_metadata(path: str | os.PathLike) -> ImageMetadata:
     and by :func:`read_image`), each with what to convert it to: CMYK
     images; 16-bit PNGs other than plain grey (Pillow reads them as 8
     bits); TIFF files that are not MINISBLACK grey or RGB (MINISWHITE,
-    palette, CMYK...), that hold more than one series (images of several
+    palette, CMYK...), grey ones of 3 or 4 samples per pixel (which would
+    be rendered as RGB), that hold more than one series (images of several
     shapes, several OME images), or whose chain of pages is broken (a
     truncated file, of which tifffile would read only the first pages).
 
@@ -1085,11 +1138,16 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
         series = tif.series[0]
         axes, shape = series.axes, series.shape
         page = series.keyframe
-        channel_axis, colour = None, ""
+        channel_axis, colour, extra = None, "", _extra_samples(page)
         photometric = tifffile.PHOTOMETRIC(page.photometric)
-        if photometric == tifffile.PHOTOMETRIC.RGB and "S" in axes:
+        if "S" in axes:
+            samples = page.samplesperpixel
+            colour = f"TIFF photometric {photometric.name}, {samples} samples per pixel"
+            if extra:
+                colour += f" (extra samples: {', '.join(extra)})"
             channel_axis = axes.index("S")
-            colour = f"TIFF photometric RGB, {page.samplesperpixel} samples per pixel"
+            if photometric != tifffile.PHOTOMETRIC.RGB:  # grey and extra samples
+                channel_axis -= len(axes)  # as a PNG's -1: the command line keeps its alpha
         record, sizes, ome = None, {}, bool(tif.is_ome and tif.ome_metadata)
         if ome:
             image = _first(tifffile.xml2dict(tif.ome_metadata)["OME"].get("Image"))
@@ -1116,7 +1174,32 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
         ome=ome,
         provenance=record,
         ambiguous=_ambiguous(shape, channel_axis, None if tifffile_default else axes),
+        grey_alpha=photometric != tifffile.PHOTOMETRIC.RGB
+        and len(extra) == 1
+        and extra[0] in _ALPHA_SAMPLES,
+        extra_samples=extra,
+        resolution=_tiff_resolution(page),
     )
+
+
+def _extra_samples(page) -> tuple[str, ...]:
+    """The extra samples of a TIFF page by name; those its tags omit are unspecified."""
+    import tifffile
+
+    named = tuple(tifffile.EXTRASAMPLE(code).name.lower() for code in page.extrasamples)
+    colours = 3 if page.photometric == tifffile.PHOTOMETRIC.RGB else 1
+    return named + ("unspecified",) * max(page.samplesperpixel - colours - len(named), 0)
+
+
+def _tiff_resolution(page) -> tuple[float, float, str | None] | None:
+    """``ImageMetadata.resolution`` of a TIFF page; None for tifffile's default (1, 1, none)."""
+    if "XResolution" not in page.tags:
+        return None
+    unit = page.resolutionunit.name.lower()
+    x, y = page.resolution
+    if unit == "none" and (x, y) == (1.0, 1.0):
+        return None
+    return float(x), float(y), None if unit == "none" else unit
 
 
 def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
@@ -1131,6 +1214,8 @@ def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
             text = image.info.get("comment") or None
         else:
             text = None
+        dpi = image.info.get("dpi")
+        orientation = image.getexif().get(_EXIF_ORIENTATION, 1)
     if text is not None and kind == "JPEG" and not text.lstrip().startswith(b"{"):
         text = None  # a comment of another program
     colour = _PIL_COLOUR_MODES.get(mode)
@@ -1138,12 +1223,19 @@ def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
     if from_transparency:
         read = _PIL_COLOUR_MODES.get(stored, f"grey ({stored})")
         words = f"{kind} {read} with a transparency chunk (tRNS), read as {colour}"
+    resolution = None if dpi is None else (float(dpi[0]), float(dpi[1]), "inch")
+    if orientation != 1:
+        words += f"; EXIF orientation {orientation} applied (pixels read upright)"
+        if resolution is not None and orientation in _EXIF_TRANSPOSING:
+            resolution = (resolution[1], resolution[0], "inch")
     return ImageMetadata(
         axes="YXS" if colour else "YX",
         channel_axis=-1 if colour else None,
         colour=words,
         provenance=_record(text, path),
         grey_alpha=mode == "LA",
+        extra_samples=("unassalpha",) if mode in ("RGBA", "LA", "PA") else (),
+        resolution=resolution,
     )
 
 
@@ -1239,9 +1331,11 @@ def _tiff_file(path: Path):
         readable pages tifffile would return as the whole), if the file
         holds more than one series (images of different shapes, or several
         OME images), or if its photometric interpretation is not grey
-        (MINISBLACK) or RGB.
+        (MINISBLACK) or RGB, or is grey of 3 or 4 samples per pixel.
     """
     import tifffile
+
+    from .core.colour import LUMINANCE_CHANNELS
 
     with _tifffile_errors(path), tifffile.TiffFile(path) as tif:
         if not tif.series:
@@ -1266,6 +1360,14 @@ def _tiff_file(path: Path):
                 "convert it to a MINISBLACK grey or RGB TIFF first",
             )
             raise ImageFileError(path, f"is a {reason}")
+        samples = tif.series[0].keyframe.samplesperpixel
+        if photometric == "MINISBLACK" and samples in LUMINANCE_CHANNELS:
+            raise ImageFileError(
+                path,
+                f"is a MINISBLACK TIFF of {samples} samples per pixel (grey and "
+                f"{samples - 1} extra samples), which would be rendered as the luminance of "
+                "RGB(A); save its samples as planes (one page each) or as an RGB TIFF first",
+            )
         yield tif
 
 
@@ -1374,21 +1476,25 @@ def _unit_symbol(name: str | None) -> str | None:
 
 
 def _tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | None) -> dict:
-    """Keyword arguments of ``tifffile.imwrite``: photometric, and the metadata.
+    """Keyword arguments of ``tifffile.imwrite``: the samples, resolution and metadata.
 
-    OME-XML (axes, physical sizes, the record as a ``CommentAnnotation``)
-    when the metadata come from OME and tifffile can write the axes as
-    OME; otherwise tifffile's JSON description with the record in it.
+    Colour samples where the input had them, as it had them (see
+    :func:`_tiff_samples`); OME-XML (axes, physical sizes, the record as a
+    ``CommentAnnotation``) when the metadata come from OME and tifffile can
+    write the axes as OME; otherwise tifffile's JSON description with the
+    record in it.
     """
     from .provenance import KEY, to_json
 
     dtype = np.dtype(dtype)
     if metadata is None:
         rgb = len(shape) >= 3 and shape[-1] in (3, 4) and dtype.kind in "uif"
-    else:  # colour samples only where the input had them
-        axis = metadata.channel_axis
-        rgb = axis is not None and axis % len(shape) == len(shape) - 1 and shape[-1] in (3, 4)
-    options: dict[str, Any] = {"photometric": "rgb" if rgb else "minisblack"}
+        options: dict[str, Any] = {"photometric": "rgb" if rgb else "minisblack"}
+    else:
+        options = _tiff_samples(shape, metadata)
+    if metadata is not None and metadata.resolution is not None:
+        x, y, unit = metadata.resolution
+        options.update(resolution=(x, y), resolutionunit=(unit or "none").upper())
     record = None if metadata is None else metadata.provenance
     if metadata is not None and metadata.ome and metadata.axes and _ome_tiff_ok(metadata, shape):
         ome: dict[str, Any] = {"axes": metadata.axes}
@@ -1401,6 +1507,32 @@ def _tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | No
         options.update(ome=True, metadata=ome)
     else:
         options.update(ome=False, metadata={KEY: record} if record is not None else {})
+    return options
+
+
+def _tiff_samples(shape: Sequence[int], metadata: ImageMetadata) -> dict:
+    """``photometric``, ``planarconfig`` and ``extrasamples`` of a TIFF output.
+
+    The colour axis (RGB or grey, then the extra samples) is stored as
+    samples per pixel: contiguous when it is the last axis, planar when it
+    is the third from last (as tifffile reads them); anything else is grey
+    planes.
+    """
+    axis, ndim = metadata.channel_axis, len(shape)
+    if axis is None or axis % ndim not in (ndim - 1, ndim - 3):
+        return {"photometric": "minisblack"}
+    extra = metadata.extra_samples
+    if not extra and (shape[axis] == 4 or metadata.grey_alpha):  # alpha, as the API reads it
+        extra = ("unassalpha",)
+    colours = shape[axis] - len(extra)
+    if colours not in (1, 3) or (colours, extra) == (1, ()):
+        return {"photometric": "minisblack"}
+    options: dict[str, Any] = {
+        "photometric": "rgb" if colours == 3 else "minisblack",
+        "planarconfig": "contig" if axis % ndim == ndim - 1 else "separate",
+    }
+    if extra:
+        options["extrasamples"] = list(extra)
     return options
 
 

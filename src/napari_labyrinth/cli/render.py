@@ -397,7 +397,7 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             "--channel-axis -1 reads the last axis as RGB(A)"
         )
     kwargs = dict(options, channel_axis=channel_axis)
-    if metadata.grey_alpha and channel_axis == -1:
+    if metadata.grey_alpha and channel_axis == metadata.channel_axis:
         kwargs["alpha"] = True  # the file says grey + alpha: alpha is kept, never rendered
     mode = "stack" if args.stack else "sweep" if "parameter" in options else "single"
     chunked = is_lazy(image)
