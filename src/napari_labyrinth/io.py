@@ -14,12 +14,13 @@ per plane, or a TIFF file whose planes are written as they are computed.
 What a file says about its pixels is read by ``read_metadata`` (an
 :class:`ImageMetadata`): its colour axis (TIFF photometric RGB samples, the
 PNG/JPEG colour type), its axes and physical pixel sizes (OME-TIFF through
-tifffile's OME-XML support, OME-Zarr from its ``multiscales`` attributes)
-and the provenance record of a rendering. The writers take the same object
-and store it back: OME-XML (with the record as a ``CommentAnnotation``) or a
-JSON description in a TIFF file, an iTXt chunk in a PNG file, a comment in a
-JPEG file, attributes (OME-Zarr ``multiscales`` where the axes allow) in a
-zarr store.
+tifffile's OME-XML support, an ImageJ hyperstack through tifffile's
+ImageJ support, OME-Zarr from its ``multiscales`` attributes) and the
+provenance record of a rendering. The writers take the same object and
+store it back: OME-XML (with the record as a ``CommentAnnotation``), an
+ImageJ hyperstack (the record in its ``Properties``) or a JSON description
+in a TIFF file, an iTXt chunk in a PNG file, a comment in a JPEG file,
+attributes (OME-Zarr ``multiscales`` where the axes allow) in a zarr store.
 """
 
 from __future__ import annotations
@@ -203,6 +204,9 @@ def write_image(
         read (photometric RGB or grey, extra samples, samples planar when
         the colour axis is third from last); a PNG, JPEG or BMP file holds
         no extra sample but unassociated alpha, and the others are refused.
+        A TIFF file is OME-TIFF or an ImageJ hyperstack when the metadata
+        come from one and the format can hold the axes and dtype (see
+        :func:`_tiff_options`), else it has a JSON description.
 
     Returns
     -------
@@ -657,8 +661,11 @@ def write_array(
     renamed to it (without replacing anything that appeared meanwhile); with
     ``overwrite`` the old store is moved aside, the new one renamed into
     place and the old one removed. A lazy TIFF file is created with its
-    final size (uncompressed, planes contiguous; BigTIFF when it needs
-    more than 4 GB) and each block's planes are written at their place.
+    final size and metadata, as :func:`write_image` would write them
+    (uncompressed, planes contiguous; BigTIFF when it needs more than 4 GB,
+    except an ImageJ hyperstack, which tifffile then writes as ImageJ does:
+    a classic TIFF with the first page's tags only) and each block's planes
+    are written at their place.
     """
     path = Path(path)
     kind = image_format(path)
@@ -971,6 +978,21 @@ _PER_INCH = {"inch": 1.0, "centimeter": 2.54, "millimeter": 25.4, "micrometer": 
 _EXIF_ORIENTATION = 0x0112
 _EXIF_TRANSPOSING = (5, 6, 7, 8)
 
+#: ImageJ's spellings of units (``unit=`` of its description) -> the OME-Zarr name of the unit
+#: (as in ``ImageMetadata.pixel_sizes``); the first spelling of a unit is the one written.
+_IMAGEJ_UNITS = {
+    "um": "micrometer",
+    "micron": "micrometer",
+    "microns": "micrometer",
+    "µm": "micrometer",
+    "μm": "micrometer",
+    "\\u00b5m": "micrometer",
+    "nm": "nanometer",
+    "mm": "millimeter",
+    "cm": "centimeter",
+    "m": "meter",
+}
+
 #: OME-Zarr axis type of each axis letter (letters not here get no type).
 _OME_ZARR_TYPES = {"T": "time", "C": "channel", "Z": "space", "Y": "space", "X": "space"}
 
@@ -993,7 +1015,8 @@ class ImageMetadata:
         ``""`` when the file says nothing about colour.
     pixel_sizes : dict
         Axis letter (``"X"``, ``"Y"``, ``"Z"``) -> ``(size, unit)``, the
-        unit an OME-Zarr name (``"micrometer"``) or None.
+        unit an OME-Zarr name (``"micrometer"``), the file's own word for a
+        unit without one (an ImageJ ``unit`` such as ``"inch"``), or None.
     ome : bool
         Whether axes and pixel sizes come from OME metadata (OME-TIFF,
         OME-Zarr); an output given them is written as OME too.
@@ -1016,6 +1039,10 @@ class ImageMetadata:
         ``unit`` one of ``"inch"``, ``"centimeter"`` (or tifffile's
         ``"millimeter"``, ``"micrometer"``) or None (an aspect ratio only);
         None when the file states none.
+    imagej : bool
+        Whether axes and pixel sizes come from an ImageJ hyperstack (a TIFF
+        file of ImageJ or Fiji); a TIFF output given them is written as one
+        too where ImageJ can hold it (see :func:`_imagej_options`).
     """
 
     axes: str | None = None
@@ -1028,6 +1055,7 @@ class ImageMetadata:
     grey_alpha: bool = False
     extra_samples: tuple[str, ...] = ()
     resolution: tuple[float, float, str | None] | None = None
+    imagej: bool = False
 
     def for_output(self, extra_axis: str | None, provenance: dict | None) -> ImageMetadata:
         """The metadata of a rendering of this image.
@@ -1053,7 +1081,11 @@ def read_metadata(path: str | os.PathLike) -> ImageMetadata:
       sample is alpha); OME-TIFF axes and ``PhysicalSizeX/Y/Z``; the
       resolution tags; the provenance record (an OME ``CommentAnnotation``
       of namespace ``napari_labyrinth``, or the JSON description tifffile
-      writes).
+      writes). An ImageJ hyperstack (tifffile's ``imagej_metadata``): the
+      X and Y pixel sizes are the inverse of its resolution, Z its
+      ``spacing``, all in its ``unit``; the record is the ``napari_labyrinth``
+      entry of its ``Properties``. A JSON description gives back the axes
+      and pixel sizes a fallback stored in it (see :func:`_tiff_options`).
     - PNG, JPEG, BMP (Pillow): the colour type (``RGB``, ``RGBA``, grey +
       alpha, palette: colour axis -1; grey: none; a PNG transparency chunk
       makes an RGB or palette image RGBA and a grey one grey + alpha); the
@@ -1149,6 +1181,7 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
             if photometric != tifffile.PHOTOMETRIC.RGB:  # grey and extra samples
                 channel_axis -= len(axes)  # as a PNG's -1: the command line keeps its alpha
         record, sizes, ome = None, {}, bool(tif.is_ome and tif.ome_metadata)
+        imagej = None if ome else tif.imagej_metadata
         if ome:
             image = _first(tifffile.xml2dict(tif.ome_metadata)["OME"].get("Image"))
             pixels = (image or {}).get("Pixels", {})
@@ -1163,9 +1196,17 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
             for comment in _all(annotations.get("CommentAnnotation")):
                 if isinstance(comment, dict) and comment.get("Namespace") == KEY:
                     record = _record(str(comment.get("Value")), path)
+        elif imagej is not None:
+            sizes = _imagej_pixel_sizes(imagej, _tiff_resolution(page))
+            properties = imagej.get("Properties")
+            if isinstance(properties, dict):
+                record = _record(properties.get(KEY), path)
         elif tif.shaped_metadata:
-            record = _record(tif.shaped_metadata[0].get(KEY), path)
-    tifffile_default = not ome and set(axes) <= set("QSYX")
+            description = tif.shaped_metadata[0]
+            record = _record(description.get(KEY), path)
+            for letter, (size, unit) in description.get("pixel_sizes", {}).items():
+                sizes[letter] = (float(size), unit)
+    tifffile_default = not ome and imagej is None and set(axes) <= set("QSYX")
     return ImageMetadata(
         axes=None if tifffile_default else axes,
         channel_axis=channel_axis,
@@ -1179,7 +1220,29 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
         and extra[0] in _ALPHA_SAMPLES,
         extra_samples=extra,
         resolution=_tiff_resolution(page),
+        imagej=imagej is not None,
     )
+
+
+def _imagej_pixel_sizes(entries: dict, resolution: tuple | None) -> dict:
+    """``ImageMetadata.pixel_sizes`` of an ImageJ hyperstack, from its metadata and resolution.
+
+    ImageJ's calibration is one unit (its ``unit``, else the resolution
+    unit): X and Y are the inverse of the resolution (pixels per unit), Z
+    is the ``spacing``.
+    """
+    unit = entries.get("unit")
+    if unit is None and resolution is not None:
+        unit = resolution[2]
+    elif unit is not None:
+        unit = _IMAGEJ_UNITS.get(str(unit).lower(), str(unit))
+    sizes = {}
+    if resolution is not None:
+        sizes["X"] = (1.0 / resolution[0], unit)
+        sizes["Y"] = (1.0 / resolution[1], unit)
+    if entries.get("spacing") is not None:
+        sizes["Z"] = (float(entries["spacing"]), unit)
+    return sizes
 
 
 def _extra_samples(page) -> tuple[str, ...]:
@@ -1481,8 +1544,11 @@ def _tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | No
     Colour samples where the input had them, as it had them (see
     :func:`_tiff_samples`); OME-XML (axes, physical sizes, the record as a
     ``CommentAnnotation``) when the metadata come from OME and tifffile can
-    write the axes as OME; otherwise tifffile's JSON description with the
-    record in it.
+    write the axes as OME; an ImageJ hyperstack when they come from ImageJ
+    and ImageJ can hold the image (see :func:`_imagej_options`); otherwise
+    tifffile's JSON description with the record, and the axes and pixel
+    sizes if known (an OME or ImageJ input whose axes or dtype the format
+    cannot hold keeps them there, and its resolution in the TIFF tags).
     """
     from .provenance import KEY, to_json
 
@@ -1505,9 +1571,74 @@ def _tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | No
         if record is not None:
             ome["CommentAnnotation"] = {"Namespace": KEY, "Value": to_json(record)}
         options.update(ome=True, metadata=ome)
+    elif metadata is not None and metadata.imagej and (
+        imagej := _imagej_options(shape, dtype, metadata, options)
+    ):
+        options.update(imagej)
     else:
-        options.update(ome=False, metadata={KEY: record} if record is not None else {})
+        description: dict[str, Any] = {} if record is None else {KEY: record}
+        if metadata is not None and metadata.axes and len(metadata.axes) == len(shape):
+            description["axes"] = metadata.axes  # tifffile reads it back as the series' axes
+            if metadata.pixel_sizes:
+                description["pixel_sizes"] = {k: list(v) for k, v in metadata.pixel_sizes.items()}
+        options.update(ome=False, metadata=description)
     return options
+
+
+def _imagej_options(
+    shape: Sequence[int], dtype: np.dtype, metadata: ImageMetadata, options: dict
+) -> dict | None:
+    """``tifffile.imwrite`` options of an ImageJ hyperstack, or None if ImageJ cannot hold it.
+
+    The axes are ImageJ's (``TZCYXS``, in that order); a leading ``Q`` (the
+    passes of a stack, the values of a sweep) becomes ``T`` when there is no
+    ``T``. The pixel sizes are one unit, X and Y as the resolution (when
+    the metadata state none), Z as ``spacing``; the record is the
+    ``napari_labyrinth`` entry of ``Properties``. None, and the caller
+    writes a JSON description, for other axes (a ``Q`` beside a ``T``),
+    pixel sizes in several units, a dtype ImageJ does not store (tifffile
+    writes uint8, uint16, int16 and float32) and colour samples other than
+    contiguous uint8 RGB. The other ImageJ entries of an input (display
+    mode, ranges and colour tables, labels, frame interval, ROIs) are not
+    kept.
+    """
+    import tifffile
+
+    from .provenance import KEY, to_json
+
+    axes = metadata.axes
+    if not axes or len(axes) != len(shape):
+        return None
+    if axes[0] == "Q" and "T" not in axes:
+        axes = "T" + axes[1:]
+    rgb = (
+        options["photometric"] == "rgb"
+        and options.get("planarconfig") == "contig"
+        and "extrasamples" not in options
+        and dtype == np.uint8
+    )
+    if dtype.char not in "BHhf" or ("S" in axes) != rgb:
+        return None
+    try:
+        tifffile.imagej_description(shape, axes=axes)  # checks the axes, their order, samples
+    except ValueError:
+        return None
+    units = {unit for _, unit in metadata.pixel_sizes.values()}
+    if len(units) > 1 or not set(metadata.pixel_sizes) <= set(SPATIAL_AXES):
+        return None
+    entries: dict[str, Any] = {"axes": axes}
+    if "Z" in metadata.pixel_sizes:
+        entries["spacing"] = metadata.pixel_sizes["Z"][0]
+    if units and None not in units:
+        (unit,) = units
+        entries["unit"] = next((k for k, v in _IMAGEJ_UNITS.items() if v == unit), unit)
+    if metadata.provenance is not None:
+        entries["Properties"] = {KEY: to_json(metadata.provenance)}
+    written = {"imagej": True, "ome": False, "metadata": entries}
+    if metadata.resolution is None and {"X", "Y"} <= set(metadata.pixel_sizes):
+        x, y = metadata.pixel_sizes["X"][0], metadata.pixel_sizes["Y"][0]
+        written.update(resolution=(1.0 / x, 1.0 / y), resolutionunit="NONE")
+    return written
 
 
 def _tiff_samples(shape: Sequence[int], metadata: ImageMetadata) -> dict:
