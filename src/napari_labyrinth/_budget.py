@@ -86,15 +86,20 @@ def render_bytes(shape: Sequence[int], dtype: np.dtype, planes: int | None = Non
     """Bytes, about, to render an image of ``shape`` held in memory.
 
     The image and its result (``planes`` of its planes, default all of them)
-    and the work arrays of one plane (``WORK_BYTES_PER_PIXEL``); a plane is
-    the last two axes, or the two before a trailing colour axis of at most 4.
+    and the work arrays of one plane (``WORK_BYTES_PER_PIXEL``; a plane as
+    :func:`_plane_pixels` counts it).
     """
     shape = tuple(int(n) for n in shape)
-    plane = shape[-3:-1] if len(shape) >= 3 and shape[-1] <= 4 else shape[-2:]
-    plane_pixels = math.prod(plane)
+    plane_pixels = _plane_pixels(shape)
     per_plane = math.prod(shape) // max(plane_pixels, 1)
     held = planes * plane_pixels * per_plane if planes is not None else math.prod(shape)
     return 2 * held * np.dtype(dtype).itemsize + WORK_BYTES_PER_PIXEL * plane_pixels
+
+
+def _plane_pixels(shape: tuple[int, ...]) -> int:
+    """Pixels of a plane: the last two axes, or the two before a trailing colour axis of at
+    most 4."""
+    return math.prod(shape[-3:-1] if len(shape) >= 3 and shape[-1] <= 4 else shape[-2:])
 
 
 def refusal(shape: Sequence[int], dtype: np.dtype, *, what: str = "it", planes=None) -> str | None:
@@ -143,8 +148,7 @@ def refuse_unaffordable_result(
     if result < WEIGHED_RESULT_BYTES:
         return
     shape = tuple(int(n) for n in shape)
-    plane = shape[-3:-1] if len(shape) >= 3 and shape[-1] <= 4 else shape[-2:]
-    needed = result + WORK_BYTES_PER_PIXEL * math.prod(plane)
+    needed = result + WORK_BYTES_PER_PIXEL * _plane_pixels(shape)
     limit = memory_limit()
     if needed > limit:
         dims = " x ".join(str(n) for n in shape)
