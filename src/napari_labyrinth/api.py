@@ -265,7 +265,11 @@ def labyrinth(
     Raises
     ------
     TypeError, ValueError
-        Naming the parameter, for bad input or parameters.
+        Naming the parameter, for bad input or parameters; a
+        ``MemoryBudgetError`` (a ValueError) for a result of a numpy image
+        larger than the memory the run may use (the memory available, or
+        the environment variable ``NAPARI_LABYRINTH_MEMORY``), before any of
+        it is allocated.
 
     Notes
     -----
