@@ -709,6 +709,43 @@ def _planes(shape: tuple[int, ...], plane_axes: Sequence[int]) -> int:
     return int(np.prod([size for axis, size in enumerate(shape) if axis not in axes]))
 
 
+def check_output(
+    path: str | os.PathLike,
+    shape: Sequence[int],
+    dtype: Any,
+    *,
+    overwrite: bool,
+    metadata: ImageMetadata | None = None,
+) -> None:
+    """Raise as :func:`write_array` would for an array of ``shape`` and ``dtype``, before it
+    is made: a rendering that its output cannot take is refused before it runs.
+
+    Raises
+    ------
+    ImageFileError
+        For a format that cannot store such an array (or its extra samples),
+        a directory at ``path`` (but a zarr store: its writer decides), or an
+        existing directory it cannot write into (no permission, a read-only
+        file system).
+    FileExistsError
+        If a file is at ``path`` (not a zarr store) and ``overwrite`` is False.
+    """
+    path = Path(path)
+    kind = image_format(path)
+    placeholder = np.broadcast_to(np.zeros((), dtype), tuple(shape))  # no memory
+    if kind == "ZARR":  # a directory: the store's writer has its own rules for one there
+        _check_storable(path, kind, placeholder, metadata)
+    else:
+        _check_writable(path, kind, placeholder, overwrite, metadata)
+    parent = path.parent
+    if parent.is_dir() and not os.access(parent, os.W_OK):
+        raise ImageFileError(
+            path,
+            f"cannot write {path}: its directory takes no new file (no permission, or a "
+            "read-only file system)",
+        )
+
+
 def _check_writable(
     path: Path, kind: str, array: Any, overwrite: bool, metadata: ImageMetadata | None = None
 ) -> None:

@@ -388,6 +388,52 @@ def test_a_closed_stdout_stops_no_batch_and_prints_no_traceback(tmp_path, comman
     assert len(written) == (3 if command == "render" else 8), written
 
 
+def test_an_output_that_cannot_take_the_rendering_refuses_it_before_it_runs(
+    tmp_path, capsys, monkeypatch
+):
+    # an animated PNG (3-D) into a PNG was rendered whole, then refused by the writer
+    from PIL import Image
+
+    from napari_labyrinth import api
+
+    frames = [Image.fromarray(np.full((16, 16), 60 * k, np.uint8)) for k in range(3)]
+    source = tmp_path / "anim.png"
+    frames[0].save(source, save_all=True, append_images=frames[1:])
+    steps = api.labyrinth_steps
+    passes = []
+
+    def counted(*args, **kwargs):
+        for event in steps(*args, **kwargs):
+            passes.append(event)
+            yield event
+
+    monkeypatch.setattr(api, "labyrinth_steps", counted)
+    assert main(["render", str(source), "-o", str(tmp_path / "out.png")]) == 1
+    assert "cannot store uint8 data of shape (3, 16, 16) as PNG" in capsys.readouterr().err
+    assert passes == []  # not one pass was rendered
+    assert main(["render", str(source), "-o", str(tmp_path / "out.tif")]) == 0
+
+
+def test_check_output_refuses_as_the_writer_would(tmp_path, monkeypatch):
+    from napari_labyrinth import io
+    from napari_labyrinth.io import ImageFileError, ImageMetadata, check_output
+
+    check_output(tmp_path / "x.tif", (5, 64, 64), np.uint16, overwrite=False)
+    with pytest.raises(ImageFileError, match="as PNG"):
+        check_output(tmp_path / "x.png", (5, 64, 64), np.uint8, overwrite=False)
+    with pytest.raises(ImageFileError, match="extra samples assocalpha"):
+        check_output(
+            tmp_path / "x.png", (64, 64, 4), np.uint8, overwrite=False,
+            metadata=ImageMetadata(extra_samples=("assocalpha",)),
+        )  # fmt: skip
+    (tmp_path / "there.tif").write_bytes(b"")
+    with pytest.raises(FileExistsError):
+        check_output(tmp_path / "there.tif", (8, 8), np.uint8, overwrite=False)
+    monkeypatch.setattr(io.os, "access", lambda path, mode: False)  # a read-only mount
+    with pytest.raises(ImageFileError, match="its directory takes no new file"):
+        check_output(tmp_path / "x.tif", (8, 8), np.uint8, overwrite=False)
+
+
 class _InterruptedFinaliser:
     """Ctrl-C arriving while the garbage collector runs a finaliser: Python drops it."""
 

@@ -382,7 +382,7 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     from ..core.colour import luminance_for_limits, resolve_colour
     from ..core.parameters import without_auto
     from ..core.planes import normalise_channel_axis, plane_axes
-    from ..io import open_image, read_metadata, release_files, write_array
+    from ..io import check_output, open_image, read_metadata, release_files, write_array
     from ..lazy import default_tone_limits, is_lazy, lazy_luminance
 
     metadata = read_metadata(job.input)
@@ -420,13 +420,22 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             kwargs["tone_limits"] = (low, high)
             _note(f"{job.input}: tone limits {low!r} {high!r}")
         _choose_auto_threshold(job, image, kwargs)
-        for event in api.labyrinth_steps(image, mode, **kwargs):
+        steps = api.labyrinth_steps(image, mode, **kwargs)  # checks every argument first
+        extra = 0 if mode == "single" else 1
+        output_metadata = metadata.for_output("Q" if extra else None, None)
+        check_output(
+            job.output,
+            _result_shape(image.shape, mode, kwargs),
+            image.dtype,
+            overwrite=args.overwrite,
+            metadata=output_metadata,
+        )  # before the rendering: an output that cannot take it refuses it now
+        for event in steps:
             if isinstance(event, api.Result):
                 result, limits = event.image, event.tone_limits
             else:
                 progress(event.done, event.total)
         record = provenance_record(job.input, image, mode, kwargs, limits)
-        extra = 0 if mode == "single" else 1
         job.output.parent.mkdir(parents=True, exist_ok=True)
         write_array(
             job.output,
@@ -439,6 +448,20 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     finally:
         if chunked:
             release_files()
+
+
+def _result_shape(shape: tuple[int, ...], mode: str, kwargs: dict[str, Any]) -> tuple[int, ...]:
+    """The shape of a rendering of an image of ``shape``: a leading axis of the input and
+    every pass (stack), or of the values (sweep)."""
+    from ..core.presets import DEFAULT_PRESET, resolve_parameters
+
+    if mode == "stack":
+        overrides = {k: v for k, v in kwargs.items() if k in ("passes",)}
+        passes = resolve_parameters(kwargs.get("preset", DEFAULT_PRESET), **overrides).passes
+        return (passes + 1, *shape)
+    if mode == "sweep":
+        return (len(kwargs["values"]), *shape)
+    return tuple(shape)
 
 
 def _choose_auto_threshold(job: _Job, image, kwargs: dict[str, Any]) -> None:
