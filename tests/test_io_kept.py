@@ -225,3 +225,41 @@ def test_no_resolution_is_invented(tmp_path):
 def test_the_resolution_follows_the_exif_orientation(tmp_path):
     exif_jpeg(tmp_path / "rot.jpg", 6, dpi=(72, 144))
     assert read_metadata(tmp_path / "rot.jpg").resolution == (144.0, 72.0, "inch")
+
+
+def _srgb_profile() -> bytes:
+    from PIL import ImageCms
+
+    return ImageCms.ImageCmsProfile(ImageCms.createProfile("sRGB")).tobytes()
+
+
+@pytest.mark.parametrize("suffix,output", [(".png", ".png"), (".jpg", ".tif"), (".tif", ".tif"),
+                                           (".png", ".jpg"), (".tif", ".png")])  # fmt: skip
+def test_an_icc_profile_is_embedded_again(tmp_path, suffix, output):
+    # the profile says what the values mean: it was dropped, and the output read as sRGB
+    from PIL import Image
+
+    profile = _srgb_profile()
+    source, out = tmp_path / f"in{suffix}", tmp_path / f"out{output}"
+    if suffix == ".tif":
+        tifffile.imwrite(source, AST, photometric="rgb", iccprofile=profile)
+    else:
+        Image.fromarray(AST).save(source, icc_profile=profile)
+    assert read_metadata(source).icc_profile == profile
+    assert render(source, "-o", out, *(["--lossy"] if output == ".jpg" else [])) == EXIT_OK
+    if output == ".tif":
+        with tifffile.TiffFile(out) as tif:
+            assert bytes(tif.pages[0].tags[34675].value) == profile
+    else:
+        with Image.open(out) as image:
+            assert image.info.get("icc_profile") == profile
+    assert read_metadata(out).icc_profile == profile
+
+
+def test_no_icc_profile_is_invented(tmp_path):
+    source, out = tmp_path / "in.png", tmp_path / "out.tif"
+    write_image(source, AST)
+    assert read_metadata(source).icc_profile is None
+    assert render(source, "-o", out) == EXIT_OK
+    with tifffile.TiffFile(out) as tif:
+        assert 34675 not in tif.pages[0].tags

@@ -356,6 +356,8 @@ def _write(
     if resolution is not None and resolution[2] is not None:  # Pillow writes dots per inch
         per_inch = _PER_INCH[resolution[2]]
         options["dpi"] = (resolution[0] * per_inch, resolution[1] * per_inch)
+    if metadata is not None and metadata.icc_profile is not None and kind in ("PNG", "JPEG"):
+        options["icc_profile"] = metadata.icc_profile
     record = metadata.provenance if metadata is not None else None
     if record is not None and kind == "PNG":
         from PIL.PngImagePlugin import PngInfo
@@ -1080,6 +1082,11 @@ class ImageMetadata:
         Whether axes and pixel sizes come from an ImageJ hyperstack (a TIFF
         file of ImageJ or Fiji); a TIFF output given them is written as one
         too where ImageJ can hold it (see :func:`_imagej_options`).
+    icc_profile : bytes or None
+        The ICC colour profile the file embeds (a TIFF's InterColorProfile
+        tag, a PNG's iCCP chunk, a JPEG's APP2 segments): the meaning of its
+        values, which the rendering keeps. A TIFF, PNG or JPEG output embeds
+        it again; a BMP or zarr output holds none.
     """
 
     axes: str | None = None
@@ -1093,6 +1100,7 @@ class ImageMetadata:
     extra_samples: tuple[str, ...] = ()
     resolution: tuple[float, float, str | None] | None = None
     imagej: bool = False
+    icc_profile: bytes | None = dataclasses.field(default=None, repr=False)
 
     def for_output(self, extra_axis: str | None, provenance: dict | None) -> ImageMetadata:
         """The metadata of a rendering of this image.
@@ -1207,6 +1215,7 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
         series = tif.series[0]
         axes, shape = series.axes, series.shape
         page = series.keyframe
+        icc_profile = _tiff_icc_profile(page)  # a large tag: read while the file is open
         channel_axis, colour, extra = None, "", _extra_samples(page)
         photometric = tifffile.PHOTOMETRIC(page.photometric)
         if "S" in axes:
@@ -1257,6 +1266,7 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
         and extra[0] in _ALPHA_SAMPLES,
         extra_samples=extra,
         resolution=_tiff_resolution(page),
+        icc_profile=icc_profile,
         imagej=imagej is not None,
     )
 
@@ -1291,6 +1301,16 @@ def _extra_samples(page) -> tuple[str, ...]:
     return named + ("unspecified",) * max(page.samplesperpixel - colours - len(named), 0)
 
 
+#: The TIFF tag of an embedded ICC profile (InterColorProfile).
+_ICC_PROFILE_TAG = 34675
+
+
+def _tiff_icc_profile(page) -> bytes | None:
+    """The ICC profile a TIFF page embeds, or None."""
+    tag = page.tags.get(_ICC_PROFILE_TAG)
+    return None if tag is None else bytes(tag.value)
+
+
 def _tiff_resolution(page) -> tuple[float, float, str | None] | None:
     """``ImageMetadata.resolution`` of a TIFF page; None for tifffile's default (1, 1, none)."""
     if "XResolution" not in page.tags:
@@ -1315,6 +1335,7 @@ def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
         else:
             text = None
         dpi = image.info.get("dpi")
+        icc_profile = image.info.get("icc_profile") or None
         orientation = image.getexif().get(_EXIF_ORIENTATION, 1)
     if text is not None and kind == "JPEG" and not text.lstrip().startswith(b"{"):
         text = None  # a comment of another program
@@ -1336,6 +1357,7 @@ def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
         grey_alpha=mode == "LA",
         extra_samples=("unassalpha",) if mode in ("RGBA", "LA", "PA") else (),
         resolution=resolution,
+        icc_profile=icc_profile,
     )
 
 
@@ -1598,6 +1620,8 @@ def _tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | No
     if metadata is not None and metadata.resolution is not None:
         x, y, unit = metadata.resolution
         options.update(resolution=(x, y), resolutionunit=(unit or "none").upper())
+    if metadata is not None and metadata.icc_profile is not None:
+        options["iccprofile"] = metadata.icc_profile
     record = None if metadata is None else metadata.provenance
     if metadata is not None and metadata.ome and metadata.axes and _ome_tiff_ok(metadata, shape):
         ome: dict[str, Any] = {"axes": metadata.axes}
