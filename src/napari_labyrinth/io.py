@@ -149,7 +149,8 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     try:
         if kind == "TIFF":
             with _tiff_file(path) as tif:
-                _refuse_unaffordable(path, declared_refusal(path, kind))
+                series = tif.series[0]  # what the header declares, from the file open here
+                _refuse_unaffordable(path, refusal(series.shape, series.dtype))
                 image = tif.asarray()
         else:
             import imageio.v3 as iio

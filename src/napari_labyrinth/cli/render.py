@@ -456,8 +456,9 @@ def _result_shape(shape: tuple[int, ...], mode: str, kwargs: dict[str, Any]) -> 
     from ..core.presets import DEFAULT_PRESET, resolve_parameters
 
     if mode == "stack":
-        overrides = {k: v for k, v in kwargs.items() if k in ("passes",)}
-        passes = resolve_parameters(kwargs.get("preset", DEFAULT_PRESET), **overrides).passes
+        passes = kwargs.get("passes")
+        if passes is None:  # the preset's
+            passes = resolve_parameters(kwargs.get("preset", DEFAULT_PRESET)).passes
         return (passes + 1, *shape)
     if mode == "sweep":
         return (len(kwargs["values"]), *shape)
