@@ -33,6 +33,7 @@ Run: ``make bench`` or ``python benchmarks/bench_kernel.py [--size 2048]
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import pathlib
 import subprocess
@@ -166,9 +167,10 @@ def bench_variants(size, repeats, c):
     print("kernel/C and api/kernel are throughput ratios (targets: >= 0.85 and >= 0.9)")
 
 
-def bench_overhead(size, repeats):
-    """What ``labyrinth()`` does around the pass (paper, uint16, 1 pass), interleaved:
-    the kernel alone, the whole call, and the steps before the pass on their own."""
+def bench_overhead(size, repeats, dtype):
+    """What ``labyrinth()`` does around the pass (paper, ``dtype``, 1 pass), interleaved:
+    the kernel alone, the whole call, the steps before the pass on their own, and the
+    least work any ``labyrinth()`` must add to the pass."""
     from napari_labyrinth import labyrinth, resolve_parameters
     from napari_labyrinth._engine import render, run_pass, run_to_end
     from napari_labyrinth.core import presets
@@ -176,7 +178,7 @@ def bench_overhead(size, repeats):
     from napari_labyrinth.core.planes import PlaneLayout
     from napari_labyrinth.core.tone_scale import DEFAULT_PERCENTILES, resolve_tone_scale
 
-    image = camera(size, np.uint16)
+    image = camera(size, dtype)
     parameters = resolve_parameters("paper", passes=1)
     scale = resolve_tone_scale(image, None)
     tones = scale.to_tones(image)
@@ -210,9 +212,15 @@ def bench_overhead(size, repeats):
             image.copy,
             lambda values: resolve_parameters("paper", passes=1),
         ),
+        "least: a read of every value": (image.copy, np.ndarray.max),
+        "least: tones and a copy, no pass": (
+            image.copy,
+            lambda values: tones_and_copy(values, scale),
+        ),
     }
     wall, _ = interleaved(variants, repeats, warm=True)
-    print(f"\nlabyrinth() around the pass: paper, uint16, 1 pass, {size}^2, one thread;")
+    name = np.dtype(dtype).name
+    print(f"\nlabyrinth() around the pass: paper, {name}, 1 pass, {size}^2, one thread;")
     print(f"best of {repeats} interleaved rounds, each step on a fresh copy of the image")
     for name, seconds in wall.items():
         print(f"  {name:<34}{seconds * 1e3:>8.3f} ms")
@@ -224,7 +232,46 @@ def bench_overhead(size, repeats):
           " (the engine's render - kernel)")  # fmt: skip
     print(f"    {'and tone limits, call, checks':<32}{(wall['labyrinth()'] - engine) * 1e3:>8.3f}"
           " ms (labyrinth() - the engine's render)")  # fmt: skip
-    bench_limits_in_situ(image, tones, parameters, repeats)
+    least = wall["least: a read of every value"] + wall["least: tones and a copy, no pass"]
+    print(f"  {'least any labyrinth() adds':<34}{least * 1e3:>8.3f} ms (a read for exact limits,"
+          " then tones and the result's values)")  # fmt: skip
+    print(f"    so api/kernel can be at most {kernel / (kernel + least):.3f}; it is"
+          f" {kernel / wall['labyrinth()']:.3f}")  # fmt: skip
+    if dtype == np.uint16:
+        bench_limits_in_situ(image, tones, parameters, repeats)
+
+
+def tones_and_copy(values, scale):
+    """What ``labyrinth()`` must do to an integer plane beside its pass, and no more: make the
+    tones of every row (band by band into a ring, as the banded pass does) and copy the
+    values into a new array (the result, before the few changes are written)."""
+    from napari_labyrinth.core._banded_pass import band_rows
+    from napari_labyrinth.core.tone_scale import banded_scale_arguments
+
+    rows = band_rows(values.shape[1])
+    ring = np.empty((rows + 2, values.shape[1]), np.float32)
+    target = np.empty_like(values)
+    scale_arguments = banded_scale_arguments(scale, values.dtype)[1:6]
+    _banded_tones_and_copy()(values, ring, target, rows, *scale_arguments)
+    return target
+
+
+@functools.cache
+def _banded_tones_and_copy():
+    """The loop of :func:`tones_and_copy`, compiled on its first call."""
+    from numba import njit
+
+    from napari_labyrinth.core._banded_pass import _make_tones_and_copy
+
+    @njit(nogil=True)
+    def bands(values, ring, target, rows, low, gain, low32, gain32, wide):
+        height = values.shape[0]
+        for start in range(0, height, rows):
+            stop = min(height, start + rows)
+            _make_tones_and_copy(values, ring, target, start, stop, start, low, gain, low32,
+                                 gain32, wide)  # fmt: skip
+
+    return bands
 
 
 def bench_limits_in_situ(image, tones, parameters, repeats):
@@ -430,7 +477,8 @@ def main(argv=None):
     print(f"{os.cpu_count()} cores, {load()}")
     bench_variants(args.size, args.repeats, c_reference.load())
     if args.overhead:
-        bench_overhead(args.size, 3 * args.repeats)
+        for dtype in (np.uint16, np.uint8):
+            bench_overhead(args.size, 3 * args.repeats, dtype)
         bench_tone_limits(args.size, 2 * args.repeats)
     if args.images:
         bench_images(args.size, args.repeats)
