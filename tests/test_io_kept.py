@@ -108,6 +108,37 @@ def test_rgb_with_extra_samples_keeps_them(tmp_path):
         write_image(tmp_path / "out.png", image[..., :4], metadata=read_metadata(source))
 
 
+@pytest.mark.parametrize("extra", [[2, 0], [0, 2], [1, 0], [0, 0, 2]])
+def test_alpha_among_several_extra_samples_is_refused_before_rendering(tmp_path, capsys, extra):
+    # its alpha was rendered as a plane of data (only a last, single extra sample is kept)
+    source, out = tmp_path / "rgbxa.tif", tmp_path / "out.tif"
+    planes = [AST] + [ALPHA] * len(extra)
+    tifffile.imwrite(source, np.dstack(planes), photometric="rgb", extrasamples=extra)
+    assert render(source, "-o", out) == EXIT_FAILED
+    err = capsys.readouterr().err
+    assert "hold alpha beside other samples" in err and "alpha as its only extra sample" in err
+    assert not out.exists()
+
+
+def test_a_single_unspecified_extra_sample_is_kept_and_said(tmp_path, capsys):
+    source, out = tmp_path / "rgbx.tif", tmp_path / "out.tif"
+    tifffile.imwrite(source, np.dstack([AST, ALPHA]), photometric="rgb", extrasamples=[0])
+    assert render(source, "-o", out) == EXIT_OK
+    note = "fourth sample is an unspecified extra sample (not alpha): kept as it is"
+    assert note in capsys.readouterr().err
+    result = tifffile.imread(out)
+    np.testing.assert_array_equal(result[..., 3], ALPHA)
+    assert not np.array_equal(result[..., :3], AST)
+    assert tiff_samples(out) == ("YXS", "RGB", 1, ["UNSPECIFIED"])
+
+
+def test_an_rgb_alpha_tiff_is_rendered_without_a_note(tmp_path, capsys):
+    source, out = tmp_path / "rgba.tif", tmp_path / "out.tif"
+    tifffile.imwrite(source, np.dstack([AST, ALPHA]), photometric="rgb", extrasamples=[2])
+    assert render(source, "-o", out) == EXIT_OK
+    assert "extra sample" not in capsys.readouterr().err
+
+
 def test_a_grey_tiff_of_three_samples_is_refused(tmp_path):
     path = tmp_path / "g3.tif"
     grey = np.dstack([CAM, CAM, CAM])

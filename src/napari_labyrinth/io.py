@@ -1117,6 +1117,29 @@ class ImageMetadata:
             axis += 1
         return dataclasses.replace(self, axes=axes, channel_axis=axis, provenance=provenance)
 
+    def unrenderable_samples(self) -> str | None:
+        """Why the colour axis cannot be rendered as the file describes it, or None.
+
+        A rendering keeps at most one channel as it is, the last (alpha, or
+        the fourth of four channels): an alpha extra sample among several
+        would be rendered as a plane of data. The reason names the samples.
+        """
+        extra = self.extra_samples
+        if len(extra) > 1 and any(sample in _ALPHA_SAMPLES for sample in extra):
+            return (
+                f"its extra samples ({', '.join(extra)}) hold alpha beside other samples: a "
+                "rendering keeps only one extra sample, the last, as it is; save the image "
+                "with alpha as its only extra sample"
+            )
+        return None
+
+    def kept_unspecified_sample(self) -> bool:
+        """An RGB image with one extra sample that is not alpha (``"unspecified"``): as the
+        fourth of four channels, a rendering keeps it as it is, as it keeps alpha."""
+        return self.extra_samples == ("unspecified",) and self.colour.startswith(
+            "TIFF photometric RGB,"
+        )
+
 
 def read_metadata(path: str | os.PathLike) -> ImageMetadata:
     """What an image file or zarr store says about its pixels, without reading them.

@@ -382,7 +382,14 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     from ..core.colour import luminance_for_limits, resolve_colour
     from ..core.parameters import without_auto
     from ..core.planes import normalise_channel_axis, plane_axes
-    from ..io import check_output, open_image, read_metadata, release_files, write_array
+    from ..io import (
+        ImageFileError,
+        check_output,
+        open_image,
+        read_metadata,
+        release_files,
+        write_array,
+    )
     from ..lazy import default_tone_limits, is_lazy, lazy_luminance
 
     metadata = read_metadata(job.input)
@@ -397,8 +404,17 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             "--channel-axis -1 reads the last axis as RGB(A)"
         )
     kwargs = dict(options, channel_axis=channel_axis)
-    if metadata.grey_alpha and channel_axis == metadata.channel_axis:
-        kwargs["alpha"] = True  # the file says grey + alpha: alpha is kept, never rendered
+    if channel_axis == metadata.channel_axis:
+        refusal = metadata.unrenderable_samples()
+        if refusal is not None:
+            raise ImageFileError(job.input, refusal)
+        if metadata.grey_alpha:
+            kwargs["alpha"] = True  # the file says grey + alpha: alpha is kept, never rendered
+        elif metadata.kept_unspecified_sample():
+            _note(
+                f"{job.input}: its fourth sample is an unspecified extra sample (not alpha): "
+                "kept as it is, not rendered, as alpha would be"
+            )
     mode = "stack" if args.stack else "sweep" if "parameter" in options else "single"
     chunked = is_lazy(image)
     try:
