@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from napari_labyrinth import api, metrics
+from napari_labyrinth.core.tone_scale import resolve_tone_scale
 from napari_labyrinth.plan import (
     CURRENT_PLANE,
     METADATA_KEY,
@@ -30,6 +31,8 @@ from napari_labyrinth.run import (
 )
 
 from .plan_helpers import counting_lazy, drive, noise, reproduce
+
+data = pytest.importorskip("skimage.data")
 
 # -- the module stays Qt-free ------------------------------------------------------------------
 
@@ -93,10 +96,39 @@ def test_a_stack_run_measures_every_pass_on_the_visible_plane():
     for row in rows:
         after, before = outcome.data[row["pass"], 1], outcome.data[row["pass"] - 1, 1]
         assert row["changed"] == pytest.approx(100.0 * np.mean(after != before))
-    described = metrics.describe(data[1].astype(float), outcome.data[2, 1].astype(float))
-    assert rows[1]["edge_enhancement"] == pytest.approx(described["edge_enhancement"])
+    # measured on the tone scale the passes ran on
+    scale = resolve_tone_scale(data, None)  # the API's default, of the whole layer
+    described = metrics.describe(scale.to_tones(data[1]), scale.to_tones(outcome.data[2, 1]))
+    for name, value in described.items():
+        assert rows[1][name] == pytest.approx(value, nan_ok=True), name
     _, kwargs = result_layer(plan, outcome)
     assert kwargs["metadata"][METADATA_KEY]["metrics"] == rows
+
+
+def _stack_metrics(data, factor=1.0):
+    # napari's contrast limits of the layer, the widget's default tone limits
+    snapshot = LayerSnapshot.of(data, contrast_limits=(0.0, 255.0 * factor))
+    _, outcome = drive(make_plan(snapshot, Choices(mode="stack", overrides={"passes": 2})))
+    return outcome.metric_rows
+
+
+def test_the_metrics_of_an_image_do_not_depend_on_its_dtype_or_units():
+    # measured in the layer's own values, a uint16 image had its walls' flatness bound
+    # (metrics.ENERGY_FLOOR, in tones) read 257 times too low, and a float image in [0, 1]
+    # had no walls at all
+    image = data.camera()[128:320, 128:320]
+    as_uint8 = _stack_metrics(image)
+    assert as_uint8[1]["labyrinth_cover"] > 0.01
+    for factor in (257, 1 / 255, 1e6):
+        other = image.astype(np.uint16) * 257 if factor == 257 else image * factor
+        rows = _stack_metrics(other, factor)
+        for row, expected in zip(rows, as_uint8):
+            for name, value in expected.items():
+                if name == "changed":  # finer values than uint8's keep more of the changes
+                    continue
+                assert row[name] == pytest.approx(value, rel=0.02, abs=2e-3, nan_ok=True), (
+                    other.dtype, name
+                )
 
 
 def test_metrics_of_a_plane_too_small_for_their_windows_are_nan():

@@ -69,6 +69,10 @@ class Progress:
         ``record_passes`` (stack mode) the plane after this pass is already in
         it, at index ``pass_number``; otherwise a plane lands in it after its
         last pass. Read it, never write to it.
+    tone_limits : (float, float) or None
+        The values the run maps to tones 0 and 255 (``Result.tone_limits``):
+        what the passes so far look like on the tone scale they ran on, as the
+        metrics read them (:meth:`~napari_labyrinth.core.tone_scale.ToneScale.to_tones`).
     """
 
     done: int
@@ -77,6 +81,7 @@ class Progress:
     plane: int
     pass_number: int
     partial: Any = dataclasses.field(default=None, repr=False, compare=False)
+    tone_limits: tuple[float, float] | None = None
 
 
 def render(

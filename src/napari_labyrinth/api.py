@@ -514,6 +514,7 @@ def _steps(
     total = rendered.n_rendered * sum(parameters.passes for parameters, _ in runs)
     done = 0
     results = []
+    limits = (float(scale.low), float(scale.high))
     for run, (parameters, seed) in enumerate(runs):
         record_passes = mode == "stack"
         if grey is None:
@@ -537,8 +538,7 @@ def _steps(
                 results.append(finished.value)
                 break
             done += 1
-            yield Progress(done, total, run, plane, pass_number, partial)
-    limits = (float(scale.low), float(scale.high))
+            yield Progress(done, total, run, plane, pass_number, partial, limits)
     if mode == "sweep":
         yield Result(_stack([image for image, _ in results]), [d for _, d in results], limits)
     else:

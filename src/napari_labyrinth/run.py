@@ -29,6 +29,7 @@ import numpy as np
 from . import api, metrics
 from .core.colour import luminance, resolve_colour
 from .core.planes import PlaneLayout, first_plane_index
+from .core.tone_scale import ToneScale
 from .plan import METADATA_KEY, METRIC_ROWS, RenderPlan
 
 __all__ = ["Cancelled", "Failure", "Outcome", "render", "result_layer", "splice_plane"]
@@ -80,7 +81,9 @@ def _api_steps(
             done += 1
             yield done
             if measure is not None and measure.ready(event):
-                measure.measure(event.partial, event.pass_number, plan.should_stop)
+                measure.measure(
+                    event.partial, event.pass_number, plan.should_stop, event.tone_limits
+                )
                 done += 1
                 yield done
     finally:
@@ -118,10 +121,11 @@ def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
 
 
 def _grey(plane: np.ndarray, rgb: bool) -> np.ndarray:
-    """A 2-D float32 plane for the metrics: the luminance of a colour plane."""
+    """A 2-D plane of the values the metrics measure (in tones): the luminance of a colour
+    plane."""
     if rgb:
-        return luminance(np.asarray(plane), axis=-1).astype(np.float32)
-    return np.asarray(plane, dtype=np.float32)
+        return luminance(np.asarray(plane), axis=-1)
+    return np.asarray(plane)
 
 
 class PassMetrics:
@@ -129,16 +133,18 @@ class PassMetrics:
 
     A pass is measured as soon as every plane at the position on screen (one,
     or one per colour channel) has reported it; the original's own maps are
-    computed once for all passes.
+    computed once for all passes. The planes are measured on the tone scale
+    the passes ran on (``Progress.tone_limits``), where the metrics' bounds
+    lie (``metrics.ENERGY_FLOOR`` is in tones): the same image as uint8,
+    uint16 or float in [0, 1] gets the same numbers.
     """
 
     def __init__(self, plan: RenderPlan, data: np.ndarray) -> None:
         self.rgb = plan.rgb
         self.index = () if plan.source_index is not None else tuple(plan.visible_index)
-        try:
-            self.comparison = metrics.Comparison(_grey(data[self.index], self.rgb))
-        except ValueError:  # a plane too small for the metrics' windows: rows of NaN
-            self.comparison = None
+        self.original = _grey(data[self.index], self.rgb)
+        self.scale: ToneScale | None = None  # from the first pass measured
+        self.comparison: metrics.Comparison | None = None
         colour = plan.arguments.get("colour")
         self.planes = visible_planes(data.shape, self.index, self.rgb, colour)
         self.waiting: dict[int, set[int]] = {}
@@ -153,13 +159,23 @@ class PassMetrics:
         waiting.discard(event.plane)
         return not waiting
 
-    def measure(self, stack: np.ndarray, pass_number: int, should_stop) -> None:
-        """Measure pass ``pass_number`` of ``stack``; raise :class:`Cancelled` between metrics."""
+    def measure(
+        self, stack: np.ndarray, pass_number: int, should_stop, tone_limits: tuple[float, float]
+    ) -> None:
+        """Measure pass ``pass_number`` of ``stack``, on the tone scale of ``tone_limits``;
+        raise :class:`Cancelled` between metrics."""
+        if self.scale is None:
+            self.scale = ToneScale(*tone_limits)
+            try:
+                self.comparison = metrics.Comparison(self.scale.to_tones(self.original))
+            except ValueError:  # a plane too small for the metrics' windows: rows of NaN
+                self.comparison = None
         rendered = np.asarray(stack[(pass_number,) + self.index])
         row: dict[str, float] = {"pass": pass_number}
         row.update({key: math.nan for key, _, function in METRIC_ROWS if function})
         if self.comparison is not None:
-            for name, value in self.comparison.describe_steps(_grey(rendered, self.rgb)):
+            tones = self.scale.to_tones(_grey(rendered, self.rgb))
+            for name, value in self.comparison.describe_steps(tones):
                 if should_stop():
                     raise Cancelled
                 row[name] = value
