@@ -264,6 +264,45 @@ def test_describe_reuses_an_original_by_content_not_by_identity(cases, monkeypat
     assert len(tensors) == 3  # a new original: its contours as well
 
 
+def _in_units(tones, low, high):
+    """Values of which ``tones`` are the tones on the scale (low, high)."""
+    return low + tones * (high - low) / 255.0
+
+
+@pytest.mark.parametrize("limits", [(0.0, 1.0), (1000.0, 61000.0), (-3e6, 5e6)])
+def test_tone_limits_measure_planes_of_any_units_on_the_tone_scale(cases, limits):
+    from napari_labyrinth.core.tone_scale import ToneScale
+
+    original, rendered = (_in_units(cases[k], *limits) for k in ("original", "labyrinth"))
+    scale = ToneScale(*limits)
+    expected = metrics.describe(scale.to_tones(original), scale.to_tones(rendered))
+    assert expected["labyrinth_cover"] > 0.1  # walls, in tones
+    measured = metrics.describe(original, rendered, tone_limits=limits)
+    assert measured == expected
+    assert metrics.Comparison(original, tone_limits=limits).describe(rendered) == expected
+    steps = dict(metrics.describe_steps(original, rendered, tone_limits=limits))
+    assert steps == expected
+    # without them the planes are read as tones: the walls' flatness bound is missed
+    assert metrics.describe(original, rendered) != expected
+
+
+def test_describe_keeps_an_original_apart_for_each_tone_scale(cases):
+    original, rendered = cases["original"], cases["labyrinth"]
+    on_its_own = metrics.describe(original, rendered)
+    stretched = metrics.describe(original, rendered, tone_limits=(50.0, 200.0))
+    assert stretched != on_its_own
+    assert metrics.describe(original, rendered) == on_its_own
+    assert metrics.describe(original, rendered, tone_limits=(50, 200)) == stretched
+
+
+@pytest.mark.parametrize("limits", [(1, 1), (2, 1), (0, math.inf), "0 255", (0,), {0, 1}])
+def test_bad_tone_limits_are_refused_by_name(cases, limits):
+    with pytest.raises((TypeError, ValueError), match="tone_limits"):
+        metrics.describe(cases["original"], cases["labyrinth"], tone_limits=limits)
+    with pytest.raises((TypeError, ValueError), match="tone_limits"):
+        metrics.Comparison(cases["original"], tone_limits=limits)
+
+
 def test_workers_do_not_change_the_results(cases):
     original, rendered = cases["original"], cases["labyrinth"]
     expected = metrics.describe(original, rendered, workers=1)

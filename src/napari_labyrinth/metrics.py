@@ -37,6 +37,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .core.parameters import WORKERS, Parameter
+from .core.tone_scale import resolve_tone_scale, validate_tone_limits
 
 #: Window (Gaussian sigma, pixels) over which local statistics are averaged.
 WINDOW_SIGMA = 2.0
@@ -1178,7 +1179,14 @@ class Comparison:
     ----------
     original : array_like
         The input plane: 2-D, real dtype, at least 3 x 3, on the tone scale
-        of the renderings.
+        of the renderings, or mapped there by ``tone_limits``.
+    tone_limits : (float, float), optional
+        The values that the rendering mapped to tones 0 and 255 (its
+        ``Result.tone_limits``, or the ``tone_limits`` it was given): the
+        original and every rendering are measured on that tone scale
+        (``ToneScale.to_tones``, values outside clipped), where the metrics'
+        bounds lie (:data:`ENERGY_FLOOR` is in tones). None: the planes are
+        tones already (a uint8 image rendered on the paper's 0-255 scale).
     workers : int, optional
         Threads the heavy maps are split between (bands of rows): None for
         every core, else within the bounds of ``labyrinth(workers=...)``
@@ -1196,9 +1204,13 @@ class Comparison:
     True
     """
 
-    def __init__(self, original, *, workers: int | None = None):
+    def __init__(
+        self, original, *, tone_limits: Any = None, workers: int | None = None
+    ) -> None:
         workers = _validate_workers(workers)
         array = _plane(original, "original")
+        self._scale = None if tone_limits is None else resolve_tone_scale(array, tone_limits)
+        array = self._tones(array)
         self._pool = _SHARED_POOL
         plane = self._pool.take(array.shape, _kernel_dtype(array.dtype))
         _copy_in_bands(plane, array, workers)
@@ -1233,9 +1245,14 @@ class Comparison:
         """
         return self._steps(self._rendering_maps(rendered))
 
+    def _tones(self, plane: np.ndarray) -> np.ndarray:
+        """``plane`` on the tone scale of ``tone_limits`` (itself without them)."""
+        return plane if self._scale is None else self._scale.to_tones(plane)
+
     def _rendering_maps(self, rendered) -> _Maps:
-        """The maps of ``rendered`` (checked, copied into an array of the pool)."""
-        after_array = _plane(rendered, "rendered")
+        """The maps of ``rendered`` (checked, on the tone scale, copied into an array of the
+        pool)."""
+        after_array = self._tones(_plane(rendered, "rendered"))
         _same_shape(self._maps.plane, after_array)
         plane = self._pool.take(after_array.shape, _kernel_dtype(after_array.dtype))
         _copy_in_bands(plane, after_array, self.workers)
@@ -1271,7 +1288,7 @@ class Comparison:
 
 
 def describe_steps(
-    original, rendered, *, workers: int | None = None
+    original, rendered, *, tone_limits: Any = None, workers: int | None = None
 ) -> Iterator[tuple[str, float]]:
     """Yield ``(name, value)`` for each metric of a rendering of ``original``, one at a time.
 
@@ -1280,27 +1297,37 @@ def describe_steps(
     work of the others (see :meth:`Comparison.describe_steps`). The maps of
     the last ``original`` are kept, by content, for the next renderings of
     it: a stack's passes compute them once. :class:`Comparison` does the
-    same without comparing the original each time.
+    same without comparing the original each time. ``tone_limits`` and
+    ``workers`` as :class:`Comparison` takes them.
     """
-    return _comparison_of(original, _validate_workers(workers)).describe_steps(rendered)
+    limits = None if tone_limits is None else validate_tone_limits(tone_limits)
+    comparison = _comparison_of(original, _validate_workers(workers), limits)
+    return comparison.describe_steps(rendered)
 
 
-def describe(original, rendered, *, workers: int | None = None) -> dict[str, float]:
+def describe(
+    original, rendered, *, tone_limits: Any = None, workers: int | None = None
+) -> dict[str, float]:
     """Every metric of a rendering of ``original``, as a dict of floats.
 
     The keys are :data:`METRICS`, in that order. The metrics share the maps
     they have in common, and the maps of the last ``original`` are kept for
-    the next renderings of it (see :func:`describe_steps`). ``workers``:
-    threads, as for :class:`Comparison`; the results do not depend on it.
+    the next renderings of it (see :func:`describe_steps`). ``tone_limits``:
+    the tone scale the planes are measured on, as for :class:`Comparison`
+    (for an image other than uint8, the rendering's ``Result.tone_limits``);
+    ``workers``: threads, as for :class:`Comparison`; the results do not
+    depend on it.
     """
-    return dict(describe_steps(original, rendered, workers=workers))
+    return dict(describe_steps(original, rendered, tone_limits=tone_limits, workers=workers))
 
 
-def _comparison_of(original, workers) -> Comparison:
-    """The :class:`Comparison` of ``original``, reused while its content is the same."""
+def _comparison_of(original, workers, tone_limits) -> Comparison:
+    """The :class:`Comparison` of ``original``, reused while its content (and the tone
+    limits) are the same."""
 
     def make(array):
-        comparison = Comparison(array, workers=workers)
-        return comparison._maps.plane, comparison
+        comparison = Comparison(array, tone_limits=tone_limits, workers=workers)
+        # its copy of the original, unless it holds the original's tones
+        return (comparison._maps.plane if tone_limits is None else array.copy()), comparison
 
-    return _ORIGINALS.get(workers, _plane(original, "original"), make)
+    return _ORIGINALS.get((workers, tone_limits), _plane(original, "original"), make)

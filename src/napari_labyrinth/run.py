@@ -29,7 +29,6 @@ import numpy as np
 from . import api, metrics
 from .core.colour import luminance, resolve_colour
 from .core.planes import PlaneLayout, first_plane_index
-from .core.tone_scale import ToneScale
 from .plan import METADATA_KEY, METRIC_ROWS, RenderPlan
 
 __all__ = ["Cancelled", "Failure", "Outcome", "render", "result_layer", "splice_plane"]
@@ -142,9 +141,8 @@ class PassMetrics:
     def __init__(self, plan: RenderPlan, data: np.ndarray) -> None:
         self.rgb = plan.rgb
         self.index = () if plan.source_index is not None else tuple(plan.visible_index)
-        self.original = _grey(data[self.index], self.rgb)
-        self.scale: ToneScale | None = None  # from the first pass measured
-        self.comparison: metrics.Comparison | None = None
+        self.original: np.ndarray | None = _grey(data[self.index], self.rgb)
+        self.comparison: metrics.Comparison | None = None  # from the first pass measured
         colour = plan.arguments.get("colour")
         self.planes = visible_planes(data.shape, self.index, self.rgb, colour)
         self.waiting: dict[int, set[int]] = {}
@@ -164,18 +162,17 @@ class PassMetrics:
     ) -> None:
         """Measure pass ``pass_number`` of ``stack``, on the tone scale of ``tone_limits``;
         raise :class:`Cancelled` between metrics."""
-        if self.scale is None:
-            self.scale = ToneScale(*tone_limits)
+        if self.original is not None:
             try:
-                self.comparison = metrics.Comparison(self.scale.to_tones(self.original))
+                self.comparison = metrics.Comparison(self.original, tone_limits=tone_limits)
             except ValueError:  # a plane too small for the metrics' windows: rows of NaN
                 self.comparison = None
+            self.original = None  # the comparison holds its tones
         rendered = np.asarray(stack[(pass_number,) + self.index])
         row: dict[str, float] = {"pass": pass_number}
         row.update({key: math.nan for key, _, function in METRIC_ROWS if function})
         if self.comparison is not None:
-            tones = self.scale.to_tones(_grey(rendered, self.rgb))
-            for name, value in self.comparison.describe_steps(tones):
+            for name, value in self.comparison.describe_steps(_grey(rendered, self.rgb)):
                 if should_stop():
                     raise Cancelled
                 row[name] = value
