@@ -119,6 +119,9 @@ def test_tone_limits_follow_the_contrast_limits_or_the_typed_values():
         tone_limits(None, ("nan", "1"))
     with pytest.raises(ValueError, match="low < high"):
         tone_limits((3.0, 3.0))
+    for typed in (("5",), ("1", "2", "3"), 5):
+        with pytest.raises(ValueError, match=r"must be a pair of numbers \(low, high\)"):
+            tone_limits(None, typed)
     assert tone_limit_text((0.1, 1234567.0)) == ("0.1", "1.23457e+06")
 
 
@@ -168,6 +171,8 @@ def test_plane_label_names_the_axes():
         (123.456, "123"),
         (-250.4, "-250"),
         (99.94, "99.9"),
+        (99.96, "100"),  # rounded up to 3 digits: no point left dangling ("100.")
+        (-99.97, "-100"),
         (0.012345, "0.0123"),
         (1234567.0, "1.23e+06"),
         (0.0, "0"),
@@ -333,6 +338,9 @@ def test_bad_choices_are_reported_by_the_plan():
         make_plan(None, Choices())
     with pytest.raises(ValueError, match="'big' is a multiscale layer"):
         make_plan(LayerSnapshot.of(noise((8, 8)), name="big", multiscale=True), Choices())
+    levels = [noise((16, 16)), noise((8, 8))]  # a list of levels: its ndim is given
+    with pytest.raises(ValueError, match="'big' is a multiscale layer"):
+        make_plan(LayerSnapshot.of(levels, name="big", multiscale=True, ndim=2), Choices())
     with pytest.raises(ValueError, match="mode must be one of"):
         make_plan(snapshot, Choices(mode="all"))
     with pytest.raises(ValueError, match="variance_threshold must be a number; got 'a'"):

@@ -131,6 +131,18 @@ def test_the_metrics_of_an_image_do_not_depend_on_its_dtype_or_units():
                 )
 
 
+def test_nan_pixels_that_stay_nan_are_not_counted_as_changed():
+    data = noise((48, 48)).astype(np.float32)
+    data[:, 24:] = np.nan
+    plan = make_plan(LayerSnapshot.of(data), Choices(mode="stack", overrides={"passes": 2}))
+    _, outcome = drive(plan)
+    for row in outcome.metric_rows:
+        after, before = outcome.data[row["pass"]], outcome.data[row["pass"] - 1]
+        assert np.isnan(after[:, 24:]).all()
+        expected = 100.0 * np.mean(after[:, :24] != before[:, :24]) / 2
+        assert row["changed"] == pytest.approx(expected)
+
+
 def test_metrics_of_a_plane_too_small_for_their_windows_are_nan():
     plan = make_plan(LayerSnapshot.of(noise((2, 2))), Choices(mode="stack"))
     _, outcome = drive(plan)

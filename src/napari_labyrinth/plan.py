@@ -149,7 +149,7 @@ class LayerSnapshot:
         >>> LayerSnapshot.of(np.zeros((3, 8, 8))).axis_labels
         ('-3', '-2', '-1')
         """
-        ndim = fields.pop("ndim", np.ndim(data) - bool(rgb))
+        ndim = fields.pop("ndim") if "ndim" in fields else np.ndim(data) - bool(rgb)
         values = {
             "name": name,
             "data": data,
@@ -279,6 +279,8 @@ def tone_limits(
     if contrast_limits is not None:
         low, high = (float(v) for v in contrast_limits)
     else:
+        if typed is not None and (not isinstance(typed, Sequence) or len(typed) != 2):
+            raise ValueError(f"tone limits must be a pair of numbers (low, high), got {typed!r}")
         typed_low, typed_high = typed if typed is not None else (None, None)
         try:
             low, high = float(typed_low), float(typed_high)
@@ -399,7 +401,10 @@ def format_metric(value: float) -> str:
         return "–"
     if value == 0:
         return "0"
-    return f"{value:.0f}" if 100 <= abs(value) < 1e6 else f"{value:#.3g}"
+    text = f"{value:#.3g}"
+    if abs(float(text)) >= 100:  # 99.96 rounds up to 100: no digits after the point
+        return f"{value:.0f}" if abs(value) < 1e6 else text
+    return text
 
 
 def metric_row_headers() -> list[tuple[str, str]]:

@@ -177,6 +177,8 @@ class PassMetrics:
                     raise Cancelled
                 row[name] = value
         changed = rendered != self.previous
+        if rendered.dtype.kind == "f":  # a NaN pixel that stays NaN is unchanged
+            changed &= ~(np.isnan(rendered) & np.isnan(self.previous))
         row["changed"] = 100.0 * float((changed.any(axis=-1) if self.rgb else changed).mean())
         self.rows.append(row)
         self.previous = rendered
