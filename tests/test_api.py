@@ -404,6 +404,19 @@ class TestDask:
         assert all(len(c) == 1 for c in lazy.chunks[-2:])  # rechunked to whole planes
         np.testing.assert_array_equal(lazy.compute(), labyrinth(stack, passes=2, seed=8))
 
+    @pytest.mark.parametrize("channel_axis", [None, -1])
+    def test_auto_v_of_a_lazy_image_is_that_of_its_array(self, camera, channel_axis):
+        # its probe took the tone scale of the sampled planes, not the whole image's: a
+        # bright plane left out of the sample moved V, and so the rendering
+        cam = camera[:256, :256].astype(np.uint16)
+        stack = np.stack([cam * 50, cam[::-1] * 50, cam * 257, cam.T * 50, cam[:, ::-1] * 50])
+        if channel_axis is not None:
+            stack = np.stack([stack, stack[::-1], stack], axis=-1)
+        lazy_input = self.da.from_array(stack, chunks=(1,) + stack.shape[1:])
+        options = dict(variance_threshold="auto", passes=1, channel_axis=channel_axis)
+        expected = labyrinth(stack, **options)
+        np.testing.assert_array_equal(labyrinth(lazy_input, **options).compute(), expected)
+
     def test_nothing_is_computed_until_asked(self, camera):
         calls = []
 

@@ -43,7 +43,7 @@ from .core.planes import (
 )
 from .core.presets import DEFAULT_PRESET, FIG3_FACTORS, resolve_parameters, resolve_sweep
 from .core.tone_scale import ToneScale, resolve_tone_scale, validate_dtype
-from .lazy import is_lazy, render_lazy
+from .lazy import is_lazy, render_lazy, rendering_tone_limits
 
 __all__ = [
     "DIAGNOSTICS_DTYPE",
@@ -453,6 +453,9 @@ def labyrinth_steps(
     render = {name: options.pop(name, default) for name, default in RENDER_OPTIONS.items()}
     overrides = options
     if is_auto(overrides.get("variance_threshold")):
+        if is_lazy(image) and render["tone_limits"] is None:  # the whole image's, as rendered
+            options = {name: render[name] for name in ("channel_axis", "alpha", "colour")}
+            render["tone_limits"] = rendering_tone_limits(image, **options)
         overrides = dict(overrides, variance_threshold=_auto_threshold(image, render, overrides))
     if mode == "sweep":
         runs = resolve_sweep(

@@ -136,12 +136,8 @@ def render_lazy(
     if dtype != given:
         image = image.astype(dtype)
     in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
-    if tone_limits is None and dtype != np.uint8:
-        if in_luminance:
-            values = luminance_for_limits(lazy_luminance(image, channel_axis), dtype)
-            tone_limits = default_tone_limits(values)  # exact, streamed
-        else:
-            tone_limits = default_tone_limits(image, channel_axis, has_alpha)  # exact, streamed
+    if tone_limits is None:
+        tone_limits = _streamed_limits(image, channel_axis, has_alpha, in_luminance)
     scale = resolve_tone_scale(np.empty(0, dtype), tone_limits)
     planes = image if channel_axis is None else da.moveaxis(image, channel_axis, -3)
     whole = {planes.ndim - 2: -1, planes.ndim - 1: -1}
@@ -208,6 +204,39 @@ def _check_known_shape(image) -> None:
             f"image is a dask array with unknown chunk sizes (shape {image.shape}, e.g. after "
             "boolean indexing): call image.compute_chunk_sizes() first"
         )
+
+
+def rendering_tone_limits(image, *, channel_axis=None, alpha=None, colour=None):
+    """The tone limits :func:`render_lazy` finds for a dask ``image`` given none: exact and
+    streamed (those of its luminance in the luminance mode), or None for uint8 (the
+    paper's scale, no scan). What ``variance_threshold="auto"`` measures its probe on, so
+    that a dask image gets the V its numpy array gets.
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`render_lazy`, before any block is read.
+    """
+    given = np.dtype(image.dtype)
+    dtype = validate_dtype(given if given.isnative else given.newbyteorder("="))
+    _check_known_shape(image)
+    validate_shape(image.shape)
+    channel_axis = normalise_channel_axis(channel_axis, image.ndim)
+    has_alpha = resolve_alpha(alpha, image.shape, channel_axis)
+    if dtype != given:
+        image = image.astype(dtype)
+    in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
+    return _streamed_limits(image, channel_axis, has_alpha, in_luminance)
+
+
+def _streamed_limits(image, channel_axis, has_alpha, in_luminance):
+    """The default tone limits of a native-order dask image, None for uint8."""
+    if image.dtype == np.uint8:
+        return None
+    if in_luminance:
+        values = luminance_for_limits(lazy_luminance(image, channel_axis), image.dtype)
+        return default_tone_limits(values)  # exact, streamed
+    return default_tone_limits(image, channel_axis, has_alpha)  # exact, streamed
 
 
 def lazy_luminance(image, channel_axis: int):

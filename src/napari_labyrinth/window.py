@@ -171,7 +171,9 @@ def find_window(
     image : array_like or dask array
         As for :func:`napari_labyrinth.labyrinth`. Of a dask array only the
         sampled planes are computed (and, without ``tone_limits``, their
-        percentiles set the tone scale).
+        percentiles set the tone scale; ``labyrinth(variance_threshold="auto")``
+        of a dask image passes the whole image's, as its rendering streams
+        them: ``lazy.rendering_tone_limits``).
     preset : str, optional
         The parameter set the window is measured for.
     seed : int, optional
