@@ -136,6 +136,27 @@ def test_a_stack_gets_one_v_from_a_sample_of_its_planes():
     assert found.found
 
 
+def test_a_nan_pixel_in_a_crop_gives_way_to_a_finite_crop_nearby_in_rank(images):
+    # a crop with one NaN pixel had an undefined edge enhancement at every V: no window
+    image = images["camera"].astype(np.float32)
+    clean = find_window(image, thresholds=GRID, crop_size=32)  # 36 cells, 6 strata
+    for plane, top, left in clean.crops:
+        holed = image.copy()
+        holed[top + 5, left + 5] = np.nan  # in a crop the clean probe takes
+        window = find_window(holed, thresholds=GRID, crop_size=32)
+        assert window.found and not np.isnan(window.edge_enhancement).any()
+        assert (plane, top, left) not in window.crops
+        assert len(set(window.crops) - set(clean.crops)) == 1  # the other crops stay
+
+
+def test_a_probe_of_crops_that_all_hold_nan_says_so(images):
+    image = images["camera"].astype(np.float32)
+    image[::9, ::9] = np.nan
+    window = find_window(image, thresholds=GRID)
+    assert not window.found
+    assert "crops hold NaN or infinite pixels: no V could be measured" in window.summary()
+
+
 def test_find_window_names_bad_arguments():
     image = np.zeros((32, 32), np.uint8)
     with pytest.raises(TypeError, match="variance_threshold"):

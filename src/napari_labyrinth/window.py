@@ -134,6 +134,9 @@ class Window:
     def summary(self, *, note: bool = True) -> str:
         """One line: ``V = 0.04 (window 0.03-0.06)``, with ``open_note`` unless ``note`` is
         False."""
+        if not self.found and all(math.isnan(value) for value in self.edge_enhancement):
+            reason = "the probe's crops hold NaN or infinite pixels: no V could be measured"
+            return f"V = {self.best:.4g} ({reason})"
         if not self.found:
             return f"V = {self.best:.4g} (no V draws the labyrinth on the edges)"
         extra = f"; {self.open_note}" if note and self.open_note else ""
@@ -218,7 +221,10 @@ def find_window(
     plane, ranked by their local contrast (mean absolute difference of
     neighbouring pixels, on a subsampled copy) and drawn one from each of
     ``crops`` equal strata of that ranking, so that edges, texture and
-    flat or dark background are each represented as in the image. Each crop
+    flat or dark background are each represented as in the image. A cell
+    drawn that holds a NaN or infinite pixel gives way to the finite cell of
+    its stratum nearest in rank, if there is one (the edge enhancement of a
+    crop with such a pixel is undefined). Each crop
     is rendered on its own, at full resolution, with the tone scale of the
     whole image; the edge enhancement is measured on the crops side by side.
     Only the crops and the ranking's subsampled cells are put on the tone
@@ -405,18 +411,26 @@ def _choose_crops(planes, to_tones, crops, crop_size, rng):
     """``(plane, top, left)`` of the probe's crops and their shape (see find_window's Notes)."""
     height, width = planes[0].shape
     size = (min(crop_size, height), min(crop_size, width))
-    candidates = []  # (contrast, plane, top, left)
+    candidates = []  # (contrast, plane, top, left, all its pixels finite)
     for p, plane in enumerate(planes):
+        floats = plane.dtype.kind in "fc"
         for top in range(0, height - size[0] + 1, size[0]):
             for left in range(0, width - size[1] + 1, size[1]):
                 cell = plane[top : top + size[0] : _RANK_STEP, left : left + size[1] : _RANK_STEP]
-                candidates.append((_contrast(to_tones(cell)), p, top, left))
+                whole = plane[top : top + size[0], left : left + size[1]]
+                finite = not floats or bool(np.isfinite(whole).all())
+                candidates.append((_contrast(to_tones(cell)), p, top, left, finite))
     candidates.sort(key=lambda c: (c[0], c[1], c[2], c[3]))
     count = min(crops, len(candidates))
     bounds = np.linspace(0, len(candidates), count + 1).astype(int)
-    chosen = [
-        candidates[int(rng.integers(start, stop))][1:] for start, stop in zip(bounds, bounds[1:])
-    ]
+    chosen = []
+    for start, stop in zip(bounds, bounds[1:]):
+        drawn = int(rng.integers(start, stop))
+        # a cell with a non-finite pixel: the finite one of its stratum nearest in rank
+        finite = [k for k in range(start, stop) if candidates[k][4]]
+        if not candidates[drawn][4] and finite:
+            drawn = min(finite, key=lambda k: (abs(k - drawn), k))
+        chosen.append(candidates[drawn][1:4])
     return [tuple(int(v) for v in c) for c in chosen], size
 
 
