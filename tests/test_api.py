@@ -417,6 +417,45 @@ class TestDask:
         expected = labyrinth(stack, **options)
         np.testing.assert_array_equal(labyrinth(lazy_input, **options).compute(), expected)
 
+    def _counting(self, image):
+        calls = []
+
+        def load(block):
+            if block.size:  # not dask's probe of the function on an empty block
+                calls.append(block.shape)
+            return block
+
+        lazy_input = self.da.from_array(image, chunks=(1,) + image.shape[1:])
+        return lazy_input.map_blocks(load, dtype=image.dtype), calls
+
+    @pytest.mark.parametrize(
+        "bad",
+        [dict(passes=-1), dict(mean_threshold="x"), dict(preset="nope"), dict(workers=0),
+         dict(seed=-3), dict(plane_offset=-1)],  # fmt: skip
+    )
+    def test_auto_v_of_a_lazy_image_checks_its_arguments_before_reading(self, bad):
+        image = np.random.default_rng(0).random((3, 32, 32)).astype(np.float32)
+        lazy_input, calls = self._counting(image)
+        with pytest.raises((TypeError, ValueError), match=next(iter(bad))):
+            labyrinth(lazy_input, variance_threshold="auto", **bad)
+        assert calls == []  # no scan of the image for its tone limits first
+
+    def test_a_lazy_sweep_finds_its_tone_limits_once(self):
+        image = np.random.default_rng(0).random((3, 32, 32)).astype(np.float32)
+        lazy_input, calls = self._counting(image)
+        labyrinth(lazy_input)
+        one = len(calls)
+        calls.clear()
+        sweep = labyrinth_sweep(lazy_input, "seed", [1, 2, 3, 4])
+        assert len(calls) == one  # not once per value
+        np.testing.assert_array_equal(sweep.compute(), labyrinth_sweep(image, "seed", [1, 2, 3, 4]))
+
+    def test_a_lazy_masked_array_is_refused(self):
+        image = np.random.default_rng(0).random((2, 32, 32)).astype(np.float32)
+        masked = self.da.ma.masked_array(self.da.from_array(image), mask=image < 0.1)
+        with pytest.raises(TypeError, match="dask masked array, whose mask the rendering"):
+            labyrinth(masked)
+
     def test_nothing_is_computed_until_asked(self, camera):
         calls = []
 

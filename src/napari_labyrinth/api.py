@@ -452,10 +452,13 @@ def labyrinth_steps(
     seed_given = options.get("seed")  # None if not given: a sweep of seeds takes none
     render = {name: options.pop(name, default) for name, default in RENDER_OPTIONS.items()}
     overrides = options
+    if is_lazy(image) and render["tone_limits"] is None:
+        # found once, for every rendering of a sweep and for the probe of V = "auto" (the
+        # whole image's, as rendered), after the checks that need no block of it
+        _check_arguments(mode, render, overrides, seed_given, parameter, values)
+        options = {name: render[name] for name in ("channel_axis", "alpha", "colour")}
+        render["tone_limits"] = rendering_tone_limits(image, **options)
     if is_auto(overrides.get("variance_threshold")):
-        if is_lazy(image) and render["tone_limits"] is None:  # the whole image's, as rendered
-            options = {name: render[name] for name in ("channel_axis", "alpha", "colour")}
-            render["tone_limits"] = rendering_tone_limits(image, **options)
         overrides = dict(overrides, variance_threshold=_auto_threshold(image, render, overrides))
     if mode == "sweep":
         runs = resolve_sweep(
@@ -622,6 +625,20 @@ def _finish(
         if progress is not None:
             progress(event.done, event.total)
     raise AssertionError("labyrinth_steps ended without a result")  # pragma: no cover
+
+
+def _check_arguments(mode, render, overrides, seed_given, parameter, values) -> None:
+    """Check the parameters and options of a run (a V of "auto" aside), naming the first at
+    fault, as the run itself would."""
+    given = without_auto(overrides)
+    if mode == "sweep":
+        swept = parameter or "variance_threshold"
+        resolve_sweep(render["preset"], given, seed_given, swept, values)
+    else:
+        resolve_parameters(render["preset"], **given)
+        SEED.validate(render["seed"])
+    _validate_workers(render["workers"])
+    validate_plane_offset(render["plane_offset"])
 
 
 def _auto_threshold(image, render: dict[str, Any], overrides: dict[str, Any]) -> float:

@@ -125,16 +125,9 @@ def render_lazy(
     import dask.array as da
 
     given = np.dtype(image.dtype)
-    dtype = validate_dtype(given if given.isnative else given.newbyteorder("="))
-    _check_known_shape(image)
-    validate_shape(image.shape)
-    channel_axis = normalise_channel_axis(channel_axis, image.ndim)
-    has_alpha = resolve_alpha(alpha, image.shape, channel_axis)
-    layout = PlaneLayout(tuple(image.shape), channel_axis, alpha=has_alpha)
+    image, channel_axis, has_alpha, layout = _checked(image, channel_axis, alpha)
+    dtype = image.dtype
     validate_stream_range(plane_offset, layout.n_planes)
-    refuse_unaffordable("image", layout.plane_shape, dtype, planes=1, what="each plane")
-    if dtype != given:
-        image = image.astype(dtype)
     in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
     if tone_limits is None:
         tone_limits = _streamed_limits(image, channel_axis, has_alpha, in_luminance)
@@ -217,16 +210,37 @@ def rendering_tone_limits(image, *, channel_axis=None, alpha=None, colour=None):
     TypeError, ValueError
         As :func:`render_lazy`, before any block is read.
     """
+    image, channel_axis, has_alpha, _ = _checked(image, channel_axis, alpha)
+    in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
+    return _streamed_limits(image, channel_axis, has_alpha, in_luminance)
+
+
+def _checked(image, channel_axis, alpha):
+    """A dask image checked before any block is read, in native byte order; its channel
+    axis (normalised), whether it has alpha, and its layout of planes.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``image`` or the option at fault.
+    """
+    if isinstance(getattr(image, "_meta", None), np.ma.MaskedArray):
+        raise TypeError(
+            "image is a dask masked array, whose mask the rendering would lose: pass "
+            "dask.array.ma.filled(image, np.nan) (a float image: NaN pixels are kept as they "
+            "are and never count as neighbours) or dask.array.ma.getdata(image)"
+        )
     given = np.dtype(image.dtype)
     dtype = validate_dtype(given if given.isnative else given.newbyteorder("="))
     _check_known_shape(image)
     validate_shape(image.shape)
     channel_axis = normalise_channel_axis(channel_axis, image.ndim)
     has_alpha = resolve_alpha(alpha, image.shape, channel_axis)
+    layout = PlaneLayout(tuple(image.shape), channel_axis, alpha=has_alpha)
+    refuse_unaffordable("image", layout.plane_shape, dtype, planes=1, what="each plane")
     if dtype != given:
         image = image.astype(dtype)
-    in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
-    return _streamed_limits(image, channel_axis, has_alpha, in_luminance)
+    return image, channel_axis, has_alpha, layout
 
 
 def _streamed_limits(image, channel_axis, has_alpha, in_luminance):
