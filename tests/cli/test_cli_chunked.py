@@ -273,6 +273,24 @@ def test_refuses_to_overwrite_the_input_store(tmp_path, capsys):
     assert sorted(os.listdir(tmp_path)) == ["group.zarr", "in.zarr"]
 
 
+@pytest.mark.parametrize(
+    "output",
+    ["group.zarr/raw_labyrinth.zarr", "group.zarr/raw", "in.zarr/out.zarr", "in.zarr/sub/x.tif"],
+)
+def test_refuses_to_write_inside_the_store_of_an_input(tmp_path, capsys, output):
+    # the store gained a member (the group no longer opened without an array's name) and
+    # its checksum changed, so that ``reproduce`` refused the input
+    image = textured()
+    store(tmp_path / "in.zarr", image)
+    group = zarr.open_group(str(tmp_path / "group.zarr"), mode="w")
+    group.create_array("raw", shape=image.shape, dtype=image.dtype)[...] = image
+    source = tmp_path / ("group.zarr/raw" if output.startswith("group") else "in.zarr")
+    before = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*"))
+    assert render(source, "-o", tmp_path / output, *OPTIONS) == 2
+    assert "would be written inside the zarr store" in capsys.readouterr().err
+    assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == before
+
+
 def test_failure_while_writing_leaves_nothing_and_keeps_the_old_store(
     tmp_path, monkeypatch, capsys
 ):

@@ -337,17 +337,26 @@ def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
     from ..io import zarr_root
 
     inputs = {}
+    stores = {}  # the zarr stores that hold inputs: nothing is written inside one
     for job in jobs:
         inputs[path_key(job.input)] = job.input
         store = zarr_root(job.input)
         if store is not None:  # replacing the store would replace the input
             inputs.setdefault(path_key(store[0]), job.input)
+            stores.setdefault(path_key(store[0]), (store[0], job.input))
     seen: dict[str, Path] = {}
     refused = []
     for job in jobs:
         if job.output is None:
             continue
         key = path_key(job.output)
+        for store_key, (store, holder) in stores.items():
+            if key != store_key and key.startswith(store_key + os.sep):
+                raise UsageError(
+                    f"the result of {job.input} would be written inside the zarr store {store}, "
+                    f"which holds the input {holder} (it would change the input, and its "
+                    "record's checksum): name an output outside it"
+                )
         if key in seen:
             raise UsageError(f"{seen[key]} and {job.input} would both be rendered to {job.output}")
         seen[key] = job.input
