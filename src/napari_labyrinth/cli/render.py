@@ -383,14 +383,13 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     zarr stores, TIFF stacks over ``LAZY_TIFF_BYTES`` and, with --scheduler,
     every TIFF are opened lazily: the rendering is a dask array written block
     by block (progress counts planes written); the default tone limits of a
-    lazy input are found by ``default_tone_limits`` (exact, in bounded
+    lazy input are found by ``lazy.rendering_tone_limits`` (exact, in bounded
     memory) and reported. Other inputs are rendered in memory (progress
     counts plane-passes).
     """
     from .. import api
-    from ..core.colour import luminance_for_limits, resolve_colour
     from ..core.parameters import without_auto
-    from ..core.planes import normalise_channel_axis, plane_axes
+    from ..core.planes import plane_axes
     from ..io import (
         ImageFileError,
         check_output,
@@ -399,7 +398,7 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
         release_files,
         write_array,
     )
-    from ..lazy import default_tone_limits, is_lazy, lazy_luminance
+    from ..lazy import is_lazy, rendering_tone_limits
 
     metadata = read_metadata(job.input)
     channel_axis = input_channel_axis(metadata, args.channel_axis)
@@ -436,12 +435,10 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
                 f"{job.input}: finding the default tone limits (0.5th and 99.5th "
                 "percentiles) in a pass over the data; --tone-limits skips it"
             )
-            axis = normalise_channel_axis(channel_axis, image.ndim)
-            if resolve_colour(options.get("colour"), image.shape, axis) == "luminance":
-                values = luminance_for_limits(lazy_luminance(image, axis), image.dtype)
-                low, high = default_tone_limits(values)  # the luminance's, as the API's
-            else:
-                low, high = default_tone_limits(image, channel_axis)
+            low, high = rendering_tone_limits(  # as the API finds them (alpha left out)
+                image, channel_axis=channel_axis, alpha=kwargs.get("alpha"),
+                colour=options.get("colour"),
+            )  # fmt: skip
             kwargs["tone_limits"] = (low, high)
             _note(f"{job.input}: tone limits {low!r} {high!r}")
         _choose_auto_threshold(job, image, kwargs)
