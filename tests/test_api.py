@@ -450,6 +450,29 @@ class TestDask:
         assert len(calls) == one  # not once per value
         np.testing.assert_array_equal(sweep.compute(), labyrinth_sweep(image, "seed", [1, 2, 3, 4]))
 
+    @pytest.mark.parametrize(
+        "case, message",
+        [("unknown chunks", "unknown chunk sizes"), ("no planes", "empty"),
+         ("no rows", "empty"), ("one axis", "at least 2 dimensions")],  # fmt: skip
+    )
+    @pytest.mark.parametrize("limits", [None, (0, 10)])
+    def test_auto_v_of_an_odd_lazy_image_is_refused_by_name(self, case, message, limits):
+        # with tone limits given its probe computed planes before any check: NaN, index
+        # and division errors from inside dask
+        from napari_labyrinth import find_window
+
+        planes = self.da.from_array(np.zeros((3, 20, 20), np.float32), chunks=(1, 20, 20))
+        image = {
+            "unknown chunks": planes[planes[:, 0, 0] >= 0],
+            "no planes": self.da.zeros((0, 20, 20), chunks=1),
+            "no rows": self.da.zeros((3, 0, 20)),
+            "one axis": self.da.zeros(20),
+        }[case]
+        with pytest.raises(ValueError, match=f"image .*{message}"):
+            labyrinth(image, variance_threshold="auto", tone_limits=limits)
+        with pytest.raises(ValueError, match=f"image .*{message}"):
+            find_window(image, tone_limits=limits)
+
     def test_a_lazy_masked_array_is_refused(self):
         image = np.random.default_rng(0).random((2, 32, 32)).astype(np.float32)
         masked = self.da.ma.masked_array(self.da.from_array(image), mask=image < 0.1)

@@ -125,7 +125,7 @@ def render_lazy(
     import dask.array as da
 
     given = np.dtype(image.dtype)
-    image, channel_axis, has_alpha, layout = _checked(image, channel_axis, alpha)
+    image, channel_axis, has_alpha, layout = checked_lazy(image, channel_axis, alpha)
     dtype = image.dtype
     validate_stream_range(plane_offset, layout.n_planes)
     in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
@@ -210,12 +210,12 @@ def rendering_tone_limits(image, *, channel_axis=None, alpha=None, colour=None):
     TypeError, ValueError
         As :func:`render_lazy`, before any block is read.
     """
-    image, channel_axis, has_alpha, _ = _checked(image, channel_axis, alpha)
+    image, channel_axis, has_alpha, _ = checked_lazy(image, channel_axis, alpha)
     in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
     return _streamed_limits(image, channel_axis, has_alpha, in_luminance)
 
 
-def _checked(image, channel_axis, alpha):
+def checked_lazy(image, channel_axis, alpha):
     """A dask image checked before any block is read, in native byte order; its channel
     axis (normalised), whether it has alpha, and its layout of planes.
 

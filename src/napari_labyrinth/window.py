@@ -34,7 +34,7 @@ from .api import _prepare
 from .core.parameters import FLOAT_DECIMALS, SEED, WORKERS, as_float
 from .core.planes import normalise_channel_axis
 from .core.presets import DEFAULT_PRESET, resolve_parameters
-from .lazy import is_lazy
+from .lazy import checked_lazy, is_lazy
 
 __all__ = [
     "CROPS",
@@ -371,6 +371,7 @@ def _sampled_planes(image, channel_axis, alpha, colour, tone_limits, max_planes)
     The planes are views: only what the probe reads of them is put on the tone scale.
     """
     if is_lazy(image):
+        checked_lazy(image, channel_axis, alpha)  # its shape, before a plane is computed
         image = _sampled_lazy(image, channel_axis, max_planes)
         channel_axis = None if channel_axis is None else -1
     array, layout, scale, grey = _prepare(image, channel_axis, tone_limits, colour, alpha)
