@@ -448,7 +448,8 @@ class TestDask:
         calls.clear()
         sweep = labyrinth_sweep(lazy_input, "seed", [1, 2, 3, 4])
         assert len(calls) == one  # not once per value
-        np.testing.assert_array_equal(sweep.compute(), labyrinth_sweep(image, "seed", [1, 2, 3, 4]))
+        expected = labyrinth_sweep(image, "seed", [1, 2, 3, 4])
+        np.testing.assert_array_equal(sweep.compute(), expected)
 
     @pytest.mark.parametrize(
         "case, message",
