@@ -250,6 +250,7 @@ def test_a_directory_that_is_not_a_store_is_never_replaced(tmp_path, capsys):
     assert render(*argv) == 1
     (line,) = error_lines(capsys.readouterr().err)
     assert "not a zarr store" in line
+    assert f"{mine}: exists and is not a zarr store" in line  # named: it is not the input
     assert os.listdir(mine) == ["thesis.txt"]
     assert leftovers(tmp_path) == []
 

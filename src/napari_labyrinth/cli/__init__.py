@@ -139,6 +139,8 @@ def describe(exc: BaseException, path: Path | str) -> str:
     from ..io import ImageFileError
 
     if isinstance(exc, ImageFileError):
+        if path_key(Path(exc.path)) != path_key(Path(path)):  # about another file: the output
+            return one_line(f"{exc.path}: {exc.reason}")
         return one_line(exc.reason)
     if isinstance(exc, OSError) and exc.strerror:
         text = exc.strerror
