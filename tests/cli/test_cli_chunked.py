@@ -292,6 +292,18 @@ def test_refuses_to_write_inside_the_store_of_an_input(tmp_path, capsys, output)
     assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == before
 
 
+def test_arrays_of_one_store_in_a_batch_are_named_after_their_array(tmp_path):
+    # they were named raw__labyrinth.zarr and other_abyrinth.zarr
+    image = textured()
+    group = zarr.open_group(str(tmp_path / "group.zarr"), mode="w")
+    for name in ("raw", "other"):
+        group.create_array(name, shape=image.shape, dtype=image.dtype)[...] = image
+    inputs = [tmp_path / "group.zarr" / name for name in ("raw", "other")]
+    assert render(*inputs, "-o", tmp_path / "out", *OPTIONS) == 0
+    names = sorted(os.listdir(tmp_path / "out"))
+    assert names == ["group_other_labyrinth.zarr", "group_raw_labyrinth.zarr"]
+
+
 def test_failure_while_writing_leaves_nothing_and_keeps_the_old_store(
     tmp_path, monkeypatch, capsys
 ):

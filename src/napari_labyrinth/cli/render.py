@@ -303,8 +303,12 @@ def _keep_apart(jobs: list[_Job]) -> None:
     """Name a result after its input's suffix too where two results would share a name.
 
     ``cells.jpg`` and ``cells.png`` both become PNG files: ``cells_jpg_labyrinth.png``
-    and ``cells_labyrinth.png``.
+    and ``cells_labyrinth.png``; the arrays ``group.zarr/raw`` and ``group.zarr/other``
+    (results named after their store) become ``group_raw_labyrinth.zarr`` and
+    ``group_other_labyrinth.zarr``.
     """
+    from ..io import zarr_root
+
     names: dict[str, int] = {}
     for job in jobs:
         if job.output is not None:
@@ -313,10 +317,15 @@ def _keep_apart(jobs: list[_Job]) -> None:
     for job in jobs:
         if job.output is None or names[path_key(job.output)] < 2:
             continue
-        if job.input.suffix.lower() != job.output.suffix.lower():
-            label = job.input.suffix.lstrip(".").lower()
-            rest = job.output.name[len(job.input.stem) :]
-            job.output = job.output.with_name(f"{job.input.stem}_{label}{rest}")
+        root = zarr_root(job.input)
+        if root is not None and root[1]:  # an array of a store: its name in the store
+            stem, label = root[0].stem, root[1].replace("/", "_")
+        elif job.input.suffix.lower() != job.output.suffix.lower():
+            stem, label = job.input.stem, job.input.suffix.lstrip(".").lower()
+        else:
+            continue
+        rest = job.output.name[len(stem) :]
+        job.output = job.output.with_name(f"{stem}_{label}{rest}")
 
 
 def _check_lossless(output: Path, kind: str, lossy: bool) -> None:
