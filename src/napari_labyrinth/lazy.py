@@ -314,7 +314,9 @@ def default_tone_limits(
     A dask array is never loaded whole: 8- and 16-bit integers take one pass
     over the data (a count of every value); other types take a min/max pass,
     a histogram pass and a pass that gathers the distinct values of the bins
-    holding the order statistics (more only for extremely concentrated data).
+    holding the order statistics (more only for extremely concentrated data,
+    or values beside far outliers: then a min/max pass of a bin's own values
+    and a histogram over their range).
     Memory stays within a few blocks and a few MB of partial results.
     """
     values = without_alpha(image, channel_axis, alpha)
@@ -383,6 +385,14 @@ class _Window:
     exact: bool = False  # every bin holds one value: lo + k
     shift: int = 0
 
+    def spanning(self, dtype: np.dtype, low: float, high: float) -> _Window:
+        """This window, its histogram over ``[low, high]``, the least and greatest of its
+        values: values far from the others (a NoData value of -3.4e38 beside values in
+        [0, 1]) leave the others few bins of a histogram over the whole range; a
+        histogram over their own range separates them."""
+        own = _root_window(dtype, low, high)
+        return dataclasses.replace(own, chain=self.chain)
+
     def child(self, k: int) -> _Window:
         return _Window(
             chain=self.chain + ((self.lo, self.scale, self.bins, k, self.shift),),
@@ -421,24 +431,28 @@ def _bin(values: np.ndarray, lo: float, scale: float, bins: int, shift: int = 0)
 
 def _order_statistics(blocks, dtype: np.dtype, root: _Window, ranks: list[int]) -> dict[int, Any]:
     """Values of the given ranks (0-based, among the sorted finite values)."""
-    # rank -> (window, rank within it, "hist" or "gather")
+    # rank -> (window, rank within it, "hist", "gather" or "range")
     pending = {rank: (root, rank, "hist") for rank in ranks}
     found: dict[int, Any] = {}
-    for _ in range(2 * MAX_LEVELS + 1):
+    for _ in range(3 * MAX_LEVELS + 1):
         if not pending:
             return found
         plan = tuple(dict.fromkeys((mode, window) for window, _, mode in pending.values()))
         results = dict(zip(plan, _reduce(blocks, plan)))
         for rank, (window, within, mode) in list(pending.items()):
             result = results[(mode, window)]
+            if mode == "range":  # the window's histogram spans its own values only
+                _, low, high = result
+                pending[rank] = (window.spanning(dtype, low, high), within, "hist")
+                continue
             if mode == "gather":
                 if result is not None:
                     values, counts = result
                     position = int(np.searchsorted(np.cumsum(counts), within, side="right"))
                     found[rank] = values[position]
                     del pending[rank]
-                else:  # too many distinct values: split the window further
-                    pending[rank] = (window, within, "hist")
+                else:  # too many distinct values: split the range they span
+                    pending[rank] = (window, within, "range")
                 continue
             cumulative = np.cumsum(result)
             k = int(np.searchsorted(cumulative, within, side="right"))
@@ -447,12 +461,16 @@ def _order_statistics(blocks, dtype: np.dtype, root: _Window, ranks: list[int]) 
                 found[rank] = np.array(window.lo + k).astype(dtype)[()]
                 del pending[rank]
             elif len(window.chain) >= MAX_LEVELS:
-                raise ValueError(
-                    "cannot find the default tone limits of these values; pass --tone-limits"
-                )
+                raise ValueError(_UNFOUND)
             else:
                 pending[rank] = (window.child(k), within, "gather")
-    raise ValueError("cannot find the default tone limits of these values; pass --tone-limits")
+    raise ValueError(_UNFOUND)
+
+
+_UNFOUND = (
+    "cannot find the default tone limits of these values; pass tone_limits (--tone-limits on "
+    "the command line)"
+)
 
 
 def _blocks(array) -> list:
@@ -486,16 +504,17 @@ def _scan_block(block: np.ndarray, plan: tuple) -> list:
                 part, as_float = part[finite], as_float[finite]
         slab = []
         for mode, window in plan:
+            inside = None
+            for lo, scale, bins, k, shift in () if window is None else window.chain:
+                match = _bin(as_float, lo, scale, bins, shift) == k
+                inside = match if inside is None else inside & match
             if mode == "range":
-                if as_float.size:
-                    slab.append((as_float.size, float(as_float.min()), float(as_float.max())))
+                values = as_float if inside is None else as_float[inside]
+                if values.size:
+                    slab.append((values.size, float(values.min()), float(values.max())))
                 else:
                     slab.append((0, math.inf, -math.inf))
                 continue
-            inside = None
-            for lo, scale, bins, k, shift in window.chain:
-                match = _bin(as_float, lo, scale, bins, shift) == k
-                inside = match if inside is None else inside & match
             if mode == "hist":
                 values = as_float if inside is None else as_float[inside]
                 index = _bin(values, window.lo, window.scale, window.bins, window.shift)

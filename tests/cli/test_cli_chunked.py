@@ -429,6 +429,26 @@ def test_streamed_percentiles_of_values_closer_than_normal_floats(
     assert lazy_images.percentiles(lazy, (0.5, 99.5)) == expected
 
 
+@pytest.mark.parametrize(
+    "dtype, outliers",
+    [("float32", [-3.4028235e38]), ("float64", [1e300]), ("float64", [-1e308, 1e308]),
+     ("float32", [3e38, -3e38, 2e38])],  # fmt: skip
+)
+@pytest.mark.parametrize("gather_limit", [1 << 18, 3])
+def test_streamed_percentiles_of_values_beside_far_outliers(
+    monkeypatch, dtype, outliers, gather_limit
+):
+    """A NoData value of -3.4e38 beside values in [0, 1] left the values one bin of every
+    histogram over the whole range: 8 levels gave up ("cannot find the default tone
+    limits"). Each split histogram spans its own values' range."""
+    monkeypatch.setattr(lazy_images, "GATHER_LIMIT", gather_limit)
+    values = np.random.default_rng(3).random((4, 4096)).astype(dtype)
+    values[:, : len(outliers)] = outliers
+    lazy = da.from_array(values, chunks=(1, 4096))
+    expected = [float(v) for v in np.percentile(values, (0.5, 99.5))]
+    assert lazy_images.percentiles(lazy, (0.5, 99.5)) == expected
+
+
 def test_a_lazy_image_of_subnormal_values_renders_as_in_memory():
     from napari_labyrinth import labyrinth
 

@@ -73,7 +73,8 @@ class ToneScale:
         if (values.dtype.itemsize <= 2 or values.dtype == np.float32) and self._fits_float32:
             # values are exact in float32: map there, with half the memory traffic
             tones = np.subtract(values, np.float32(self.low), dtype=np.float32)
-            tones *= np.float32(self._gain)
+            with np.errstate(over="ignore"):  # values far outside the limits: clipped below
+                tones *= np.float32(self._gain)
         else:
             tones = np.subtract(values, self.low, dtype=np.float64) * self._gain
             tones = tones.astype(np.float32)
