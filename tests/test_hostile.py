@@ -364,6 +364,20 @@ def test_a_result_too_big_for_the_memory_is_refused_before_it_is_allocated(monke
     assert labyrinth_stack(image, passes=3).shape == (4, 1024, 1024)
 
 
+def test_a_lazy_stack_whose_blocks_cannot_be_held_is_refused(monkeypatch):
+    # a block holds a plane and every pass of it: 124 MB ran on a 60 MB budget, after a
+    # refusal of the same image in memory that advised passing it as a dask array
+    da = pytest.importorskip("dask.array")
+    monkeypatch.setenv(MEMORY_ENV, "60M")
+    image = da.zeros((2, 1024, 1024), np.float32, chunks=(1, 1024, 1024))
+    with pytest.raises(MemoryBudgetError, match="each plane's stack of the input and 30 passes"):
+        labyrinth_stack(image, passes=30, tone_limits=(0, 1))
+    with pytest.raises(MemoryBudgetError) as refused:
+        labyrinth_stack(image, passes=30, tone_limits=(0, 1))
+    assert "dask array" not in str(refused.value)  # it is one already
+    assert labyrinth_stack(image, passes=2, tone_limits=(0, 1)).shape == (3, 2, 1024, 1024)
+
+
 def test_a_zarr_store_too_big_to_read_whole_is_refused_before_reading(tmp_path, monkeypatch):
     zarr = pytest.importorskip("zarr")
     store = tmp_path / "big.zarr"

@@ -138,12 +138,13 @@ WEIGHED_RESULT_BYTES = 64 << 20
 
 
 def refuse_unaffordable_result(
-    shape: Sequence[int], dtype: np.dtype, copies: int, what: str
+    shape: Sequence[int], dtype: np.dtype, copies: int, what: str, *, lazy: bool = False
 ) -> None:
     """Raise :class:`MemoryBudgetError` if ``copies`` arrays of ``shape`` and ``dtype`` (the
     result of a rendering of an image already in memory: 1, a pass each in a stack, or a
     rendering each, stacked, in a sweep) and the work of one plane exceed the memory
-    this run may use; ``what`` names the result in the message."""
+    this run may use; ``what`` names the result in the message. ``lazy``: the result of
+    one block of a dask image (a plane and its passes), which being lazy does not help."""
     result = copies * math.prod(int(n) for n in shape) * np.dtype(dtype).itemsize
     if result < WEIGHED_RESULT_BYTES:
         return
@@ -155,9 +156,12 @@ def refuse_unaffordable_result(
         raise MemoryBudgetError(
             f"{what} of {dims} {np.dtype(dtype).name} pixels needs about {_bytes_text(needed)}, "
             f"more than the {_bytes_text(limit)} this run may use: render fewer passes or "
-            f"values, crop the image, pass it as a dask array (rendered lazily, plane by "
-            f"plane), or set {MEMORY_ENV} to allow more"
+            f"values, crop the image, {'' if lazy else _LAZY_ADVICE}or set {MEMORY_ENV} to "
+            "allow more"
         )
+
+
+_LAZY_ADVICE = "pass it as a dask array (rendered lazily, plane by plane), "
 
 
 def declared_refusal(path: Path, kind: str) -> str | None:

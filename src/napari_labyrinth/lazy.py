@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from ._budget import refuse_unaffordable
+from ._budget import refuse_unaffordable, refuse_unaffordable_result
 from ._engine import render, run_to_end
 from .core.colour import TONES, LuminancePlanes, luminance, luminance_for_limits
 from .core.parameters import LabyrinthParameters
@@ -128,6 +128,11 @@ def render_lazy(
     image, channel_axis, has_alpha, layout = checked_lazy(image, channel_axis, alpha)
     dtype = image.dtype
     validate_stream_range(plane_offset, layout.n_planes)
+    if record_passes:  # a block holds the plane and every pass of it
+        what = f"each plane's stack of the input and {parameters.passes} passes"
+        refuse_unaffordable_result(
+            layout.plane_shape, dtype, parameters.passes + 1, what, lazy=True
+        )
     in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
     if tone_limits is None:
         tone_limits = _streamed_limits(image, channel_axis, has_alpha, in_luminance)
