@@ -456,8 +456,8 @@ def labyrinth_steps(
         # found once, for every rendering of a sweep and for the probe of V = "auto" (the
         # whole image's, as rendered), after the checks that need no block of it
         _check_arguments(mode, render, overrides, seed_given, parameter, values)
-        options = {name: render[name] for name in ("channel_axis", "alpha", "colour")}
-        render["tone_limits"] = rendering_tone_limits(image, **options)
+        planes = {name: render[name] for name in ("channel_axis", "alpha", "colour")}
+        render["tone_limits"] = rendering_tone_limits(image, **planes)
     if is_auto(overrides.get("variance_threshold")):
         overrides = dict(overrides, variance_threshold=_auto_threshold(image, render, overrides))
     if mode == "sweep":
