@@ -374,3 +374,23 @@ def test_axes_outside_ome_zarr_rules_give_a_plain_array_with_the_record(tmp_path
     file_io.write_array(tmp_path / "out.zarr", array, metadata=metadata)
     back = file_io.read_metadata(tmp_path / "out.zarr")
     assert back.provenance == RECORD and not back.ome
+
+
+def test_release_files_closes_the_tiffs_opened_lazily(tmp_path, monkeypatch):
+    # they were only forgotten: the file was closed when the garbage collector came by,
+    # with a ResourceWarning wherever that happened
+    import gc
+    import warnings
+
+    from napari_labyrinth import io as file_io
+
+    write_image(tmp_path / "in.tif", np.zeros((2, 16, 16), np.uint16))
+    monkeypatch.setattr(file_io, "LAZY_TIFF_BYTES", 0)
+    lazy = file_io.open_image(tmp_path / "in.tif")
+    assert int(lazy.sum().compute()) == 0
+    del lazy
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        file_io.release_files()
+        gc.collect()
+    assert [w for w in caught if issubclass(w.category, ResourceWarning)] == []

@@ -588,12 +588,18 @@ class _LazyTiff:
         return ("napari-labyrinth-tiff", self.path, self.stamp, self.shape, str(self.dtype))
 
 
+#: The TIFF files :func:`_cached_tiff` opened, closed by :func:`release_files`.
+_OPEN_TIFF_STORES: list = []
+
+
 @functools.lru_cache(maxsize=8)
 def _cached_tiff(path: str, stamp: tuple[int, int]):
     import tifffile
     import zarr
 
-    return zarr.open(tifffile.imread(path, aszarr=True, series=0, level=0), mode="r")
+    store = tifffile.imread(path, aszarr=True, series=0, level=0)
+    _OPEN_TIFF_STORES.append(store)
+    return zarr.open(store, mode="r")
 
 
 @functools.lru_cache(maxsize=8)
@@ -604,8 +610,11 @@ def _cached_zarr_for_writing(path: str):
 
 
 def release_files() -> None:
-    """Forget the files opened for lazy reading and writing in this process."""
+    """Close the TIFF files opened for lazy reading in this process, and forget those and
+    the stores opened for writing."""
     _cached_tiff.cache_clear()
+    while _OPEN_TIFF_STORES:
+        _OPEN_TIFF_STORES.pop().close()
     _cached_zarr_for_writing.cache_clear()
 
 
