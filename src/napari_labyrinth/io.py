@@ -1017,6 +1017,11 @@ _TIFF_PHOTOMETRIC_REFUSALS = {
 #: RGB(A) samples.
 _TIFF_PHOTOMETRICS = ("MINISBLACK", "RGB")
 
+def _tiff_colour(photometric: str) -> str:
+    """How ``ImageMetadata.colour`` of a TIFF starts: its photometric interpretation."""
+    return f"TIFF photometric {photometric}, "
+
+
 #: TIFF extra samples (tifffile's ``EXTRASAMPLE`` names, lower case) that are alpha.
 _ALPHA_SAMPLES = ("unassalpha", "assocalpha")
 
@@ -1145,9 +1150,8 @@ class ImageMetadata:
     def kept_unspecified_sample(self) -> bool:
         """An RGB image with one extra sample that is not alpha (``"unspecified"``): as the
         fourth of four channels, a rendering keeps it as it is, as it keeps alpha."""
-        return self.extra_samples == ("unspecified",) and self.colour.startswith(
-            "TIFF photometric RGB,"
-        )
+        rgb = self.colour.startswith(_tiff_colour("RGB"))
+        return rgb and self.extra_samples == ("unspecified",)
 
 
 def read_metadata(path: str | os.PathLike) -> ImageMetadata:
@@ -1253,7 +1257,7 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
         photometric = tifffile.PHOTOMETRIC(page.photometric)
         if "S" in axes:
             samples = page.samplesperpixel
-            colour = f"TIFF photometric {photometric.name}, {samples} samples per pixel"
+            colour = f"{_tiff_colour(photometric.name)}{samples} samples per pixel"
             if extra:
                 colour += f" (extra samples: {', '.join(extra)})"
             channel_axis = axes.index("S")

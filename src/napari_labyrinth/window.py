@@ -427,10 +427,9 @@ def _choose_crops(planes, to_tones, crops, crop_size, rng):
     chosen = []
     for start, stop in zip(bounds, bounds[1:]):
         drawn = int(rng.integers(start, stop))
-        # a cell with a non-finite pixel: the finite one of its stratum nearest in rank
-        finite = [k for k in range(start, stop) if candidates[k][4]]
-        if not candidates[drawn][4] and finite:
-            drawn = min(finite, key=lambda k: (abs(k - drawn), k))
+        if not candidates[drawn][4]:  # a non-finite pixel: the finite cell nearest in rank
+            finite = [k for k in range(start, stop) if candidates[k][4]]
+            drawn = min(finite, key=lambda k: (abs(k - drawn), k), default=drawn)
         chosen.append(candidates[drawn][1:4])
     return [tuple(int(v) for v in c) for c in chosen], size
 
