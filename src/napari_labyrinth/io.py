@@ -856,26 +856,23 @@ def _write_zarr(path: Path, array, *, overwrite, plane_axes, progress, metadata)
     array = _native(array)
     temporary = _create_temporary_directory(path.parent, path.name)
     try:
-        store = os.path.abspath(temporary)
-        attributes, component = _zarr_attributes(array.ndim, metadata)
-        if component:  # an OME-Zarr image: a group holding the array
-            group = zarr.open_group(store=store, mode="w")
-            group.attrs.update(attributes)
-            store = os.path.join(store, component)
-        target = zarr.create_array(
-            store=store, shape=array.shape, chunks=chunks, dtype=array.dtype, fill_value=0
+        lazy = is_lazy(array)
+        store = _waited_for(
+            _create_zarr_array,
+            zarr,
+            os.path.abspath(temporary),
+            array,
+            chunks,
+            metadata,
+            None if lazy else np.asarray(array),
         )
-        if not component:
-            target.attrs.update(attributes)
-        if is_lazy(array):
+        if lazy:
             array = array.rechunk({axis: -1 for axis in axes})  # no-op for rendered arrays
             write = functools.partial(_write_zarr_block, store)
             run_blocks(array, write, plane_axes=tuple(axes), progress=progress)
-        else:
-            target[...] = np.asarray(array)
-            if progress is not None:
-                total = _planes(array.shape, plane_axes)
-                progress(total, total)
+        elif progress is not None:
+            total = _planes(array.shape, plane_axes)
+            progress(total, total)
         _publish_directory(temporary, path, overwrite=overwrite)
     except BaseException:
         shutil.rmtree(temporary, ignore_errors=True)
@@ -883,6 +880,61 @@ def _write_zarr(path: Path, array, *, overwrite, plane_axes, progress, metadata)
     finally:
         _cached_zarr_for_writing.cache_clear()
     return path
+
+
+def _create_zarr_array(zarr, directory: str, array, chunks, metadata, values) -> str:
+    """Create the zarr array ``array`` will be written to in ``directory``, and its path.
+
+    With its attributes (an OME-Zarr image is a group holding the array), and
+    filled with ``values`` unless they are None.
+    """
+    store = directory
+    attributes, component = _zarr_attributes(array.ndim, metadata)
+    if component:
+        group = zarr.open_group(store=store, mode="w")
+        group.attrs.update(attributes)
+        store = os.path.join(store, component)
+    target = zarr.create_array(
+        store=store, shape=array.shape, chunks=chunks, dtype=array.dtype, fill_value=0
+    )
+    if not component:
+        target.attrs.update(attributes)
+    if values is not None:
+        target[...] = values
+    return store
+
+
+def _waited_for(function, *args):
+    """``function(*args)`` run in a thread of its own, and waited for even through Ctrl-C.
+
+    zarr does its I/O on an event loop of its own, which a KeyboardInterrupt
+    in the waiting thread does not stop: a store removed after Ctrl-C was
+    written into again, and left behind, by the writes still under way. The
+    interruption (the first, if several) is raised once the function ends.
+    """
+    outcome = {}
+    ended = threading.Event()  # not Thread.join: interrupted, it can take the thread as ended
+
+    def run():
+        try:
+            outcome["value"] = function(*args)
+        except BaseException as error:  # noqa: BLE001 - raised again in the caller's thread
+            outcome["error"] = error
+        finally:
+            ended.set()
+
+    threading.Thread(target=run, name="napari-labyrinth-zarr-write", daemon=True).start()
+    interruption = None
+    while not ended.is_set():
+        try:
+            ended.wait()
+        except BaseException as error:  # noqa: BLE001 - raised once the write has ended
+            interruption = interruption or error
+    if interruption is not None:
+        raise interruption
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["value"]
 
 
 def _write_zarr_block(store: str, block, location) -> None:

@@ -7,7 +7,11 @@ limits found by streaming must equal those ``labyrinth()`` finds in memory.
 
 from __future__ import annotations
 
+import asyncio
 import os
+import signal
+import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -326,6 +330,29 @@ def test_failure_while_writing_leaves_nothing_and_keeps_the_old_store(
     np.testing.assert_array_equal(read_image(old), np.ones((2, 8, 8), np.uint8))
     assert render(tmp_path / "in.zarr", "-o", tmp_path / "out.tif", *OPTIONS) == 0
     assert sorted(os.listdir(tmp_path)) == ["in.zarr", "out.tif", "out.zarr"]
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_kill"), reason="POSIX signals")
+@pytest.mark.parametrize("lazy", [True, False], ids=["lazy", "in memory"])
+def test_ctrl_c_while_zarr_writes_leaves_no_temporary(tmp_path, monkeypatch, lazy):
+    # zarr does its I/O on an event loop of its own, which Ctrl-C in the waiting thread does
+    # not stop: the store's metadata were written after the temporary had been removed
+    original = zarr.storage.LocalStore.set
+
+    async def slow_set(self, key, value):
+        await asyncio.sleep(0.3)
+        return await original(self, key, value)
+
+    monkeypatch.setattr(zarr.storage.LocalStore, "set", slow_set)
+    image = textured()
+    array = da.from_array(image, chunks=(1, 64, 64)) if lazy else image
+    main_thread = threading.main_thread().ident
+    threading.Timer(0.1, signal.pthread_kill, (main_thread, signal.SIGINT)).start()
+    with pytest.raises(KeyboardInterrupt):
+        file_io.write_array(tmp_path / "out.zarr", array, plane_axes=(-2, -1))
+        time.sleep(5)  # not reached unless the write outran the signal
+    time.sleep(1.0)  # what zarr still had to write
+    assert os.listdir(tmp_path) == []
 
 
 def test_bad_stores_fail_one_line_each(tmp_path, capsys):
