@@ -180,7 +180,9 @@ def orientation(image, sigma: float = WINDOW_SIGMA):
     differences of the structure tensor cannot see a pattern at the Nyquist
     frequency (1-pixel walls), its double can. The tensor of
     ``skimage.feature.structure_tensor`` with a window of ``sigma`` original
-    pixels is then sampled back on the original grid. Returns
+    pixels, of the doubled plane extended by its edge values (no edge at the
+    frame: the tensor of a plane plus a constant is the plane's), is then
+    sampled back on the original grid. Returns
     ``(angle, coherence, strength)``: the angle (radians, modulo pi) of the
     local gradient direction, the coherence ``((l1 - l2) / (l1 + l2))**2`` in
     [0, 1] of the eigenvalues ``l1 >= l2``, and ``l1 + l2``.
@@ -189,7 +191,10 @@ def orientation(image, sigma: float = WINDOW_SIGMA):
     from skimage.feature import structure_tensor
 
     doubled = ndimage.zoom(_plane(image), 2, order=1, grid_mode=True, mode="nearest")
-    jrr, jrc, jcc = (t[::2, ::2] for t in structure_tensor(doubled, 2 * sigma, order="rc"))
+    reach = int(4 * 2 * sigma + 0.5) + 2  # the Gaussian's (truncated at 4 sigma), the Sobel's
+    extended = np.pad(doubled, reach, mode="edge")
+    inside = (slice(reach, -reach, 2), slice(reach, -reach, 2))
+    jrr, jrc, jcc = (t[inside] for t in structure_tensor(extended, 2 * sigma, order="rc"))
     trace = jrr + jcc
     difference = np.sqrt((jrr - jcc) ** 2 + 4 * jrc**2)
     coherence = np.where(trace > 0, (difference / np.maximum(trace, 1e-12)) ** 2, 0.0)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from napari_labyrinth import metrics
+from napari_labyrinth import labyrinth, metrics, samples
 from napari_labyrinth.samples import cholesteric_fingerprint
 
 SIZE = 160
@@ -411,6 +411,48 @@ def test_the_decimated_contour_tensor_is_close_to_the_doubled_grids(monkeypatch)
     cosine = decimated[2] * exact[2] + decimated[3] * exact[3]  # cos of twice the difference
     assert np.all(cosine[oriented] > np.cos(np.radians(4)))
 
+
+
+@pytest.mark.parametrize("sigma", [0.5, 2.0, metrics.CONTOUR_SIGMA])
+def test_the_structure_tensor_sees_no_edge_at_the_frame(sigma):
+    """The tensor is that of the plane extended by its edge values: a flat plane has no
+    contour anywhere (zero padding drew one along its frame, as strong as its brightness),
+    and a plane plus a constant has the plane's tensor. From sigma 1 on the contours'
+    window is decimated: both windows are checked."""
+    everywhere = np.ones((40, 52), dtype=bool)
+    for value in (0.0, 130.0, 1e5):
+        flat = np.full(everywhere.shape, value)
+        assert np.all(metrics.orientation(flat, sigma)[2] == 0)
+        for component in metrics._Maps(flat, workers=1).contours(sigma, everywhere):
+            assert np.all(component == 0)
+    plane = samples.camera()[200:240, 300:352].astype(float) / 2
+    expected = metrics.orientation(plane, sigma)
+    tensor = metrics._Maps(plane.copy(), workers=1).contours(sigma, everywhere)
+    largest = expected[2].max()
+    for offset in (100.0, 1000.0):
+        angle, coherence, strength = metrics.orientation(plane + offset, sigma)
+        np.testing.assert_allclose(strength, expected[2], rtol=0, atol=1e-5 * largest)
+        oriented = expected[2] > 1e-2 * largest
+        np.testing.assert_allclose(np.cos(2 * (angle - expected[0]))[oriented], 1, atol=1e-6)
+        shifted = metrics._Maps(plane + offset, workers=1).contours(sigma, everywhere)
+        for got, component in zip(shifted, tensor):
+            np.testing.assert_allclose(got, component, rtol=0, atol=1e-5 * largest)
+
+
+def test_contour_alignment_does_not_depend_on_the_originals_offset():
+    """A camera's baseline (100 counts on many sCMOS cameras) moved the camera image's
+    alignment from 0.711 to 0.274: the frame, a contour under zero padding, outweighed
+    the image's own contours."""
+    original = samples.camera()[:256, :256] // 2
+    rendered = labyrinth(original, passes=2, seed=0)
+    expected = metrics.contour_alignment(original, rendered)
+    assert expected > 0.9  # the walls follow the contours
+    for offset in (100, 1000):
+        shifted = original.astype(np.float64) + offset
+        assert metrics.contour_alignment(shifted, rendered) == pytest.approx(expected, rel=1e-5)
+        assert metrics.contour_alignment(shifted, rendered, contour_sigma=0.5) == pytest.approx(
+            metrics.contour_alignment(original, rendered, contour_sigma=0.5), rel=1e-5
+        )
 
 @pytest.mark.parametrize("workers", [1, 3])
 def test_an_originals_energy_without_h_is_the_energy_from_h(cases, monkeypatch, workers):

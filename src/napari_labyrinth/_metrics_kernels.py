@@ -978,14 +978,17 @@ def _doubled_row(plane, scale, i, origin, line, even, odd):
     """Row ``i`` of ``zoom(plane, 2, order=1, grid_mode=True, mode="nearest")``, split by parity.
 
     ``even[k]`` and ``odd[k]`` get the doubled columns 2 X and 2 X + 1 for
-    X = ``origin + k``; zero where X is outside the plane (the structure
-    tensor's ``constant`` padding). Doubled pixel 2 k samples the plane at
-    k - 1/4 and 2 k + 1 at k + 1/4: weights 1/4 and 3/4, clamped at the edges.
+    X = ``origin + k``; where X is outside the plane, the doubled row's
+    nearest column (the doubled plane extended by its edge values: the
+    structure tensor sees no edge at the frame). Doubled pixel 2 k samples
+    the plane at k - 1/4 and 2 k + 1 at k + 1/4: weights 1/4 and 3/4,
+    clamped at the edges. ``i`` is clamped to the doubled rows as well.
     ``line`` is scratch space as long as ``even``. Values are multiplied by
     ``scale`` (a power of two: exact) to keep float32 products in range.
     """
     height, width = plane.shape
     n = even.shape[0]
+    i = min(max(i, 0), 2 * height - 1)
     k = i // 2
     other = k - 1 if i % 2 == 0 else k + 1
     other = min(max(other, 0), height - 1)
@@ -994,13 +997,9 @@ def _doubled_row(plane, scale, i, origin, line, even, odd):
     # local index j holds phase column origin + j; the plane's columns are j in [j0, j1)
     j0 = min(max(0, -origin), n)
     j1 = max(min(n, width - origin), j0)
-    for j in range(j0):
-        even[j] = 0.0
-        odd[j] = 0.0
-    for j in range(j1, n):
-        even[j] = 0.0
-        odd[j] = 0.0
     if j1 == j0:
+        even[:] = 0.0  # no column of the plane (never asked for)
+        odd[:] = 0.0
         return
     # line[j - j0 + 1] = vertical interpolation at column origin + j, for j in [j0 - 1, j1 + 1), clamped
     lo = origin + j0
@@ -1016,6 +1015,15 @@ def _doubled_row(plane, scale, i, origin, line, even, odd):
     three_quarters = np.float32(0.75)
     _interpolate(line[:count], line[1 : count + 1], quarter, three_quarters, even[j0:j1])
     _interpolate(line[1 : count + 1], line[2 : count + 2], three_quarters, quarter, odd[j0:j1])
+    # doubled columns before 0 take doubled column 0's value, after 2 W - 1 that one's
+    first = even[j0]
+    last = odd[j1 - 1]
+    for j in range(j0):
+        even[j] = first
+        odd[j] = first
+    for j in range(j1, n):
+        even[j] = last
+        odd[j] = last
 
 
 @njit(cache=True, nogil=True)
@@ -1026,17 +1034,18 @@ def _interpolate(a, b, wa, wb, out):
 
 @njit(cache=True, nogil=True)
 def _tensor_products(
-    up_e, up_o, mid_e, mid_o, down_e, down_o, origin, width, work, products_e, products_o
+    up_e, up_o, mid_e, mid_o, down_e, down_o, work, products_e, products_o
 ):
-    """Products of the Sobel derivatives (``constant`` padding) of one doubled row.
+    """Products of the Sobel derivatives of one doubled row of the extended plane.
 
-    ``up``/``mid``/``down`` are the doubled rows i - 1, i, i + 1 (zero rows
-    outside the plane) split by column parity, index k holding phase column
-    ``origin + k`` (zero outside the plane). ``products_*[c, k]`` get
-    ``d_r**2``, ``d_r d_c``, ``d_c**2`` at doubled columns 2 X (``_e``) and
-    2 X + 1 (``_o``), X = ``origin + k``, for k in [1, n - 1), and zero for
-    columns outside the plane (the Gaussian's padding). ``work`` is scratch
-    space of shape (8, n).
+    ``up``/``mid``/``down`` are the doubled rows i - 1, i, i + 1 of the
+    doubled plane extended by its edge values (:func:`_doubled_row`), split
+    by column parity, index k holding phase column ``origin + k``.
+    ``products_*[c, k]`` get ``d_r**2``, ``d_r d_c``, ``d_c**2`` at doubled
+    columns 2 X (``_e``) and 2 X + 1 (``_o``), X = ``origin + k``, for k in
+    [1, n - 1), inside the plane and outside it (the Gaussian reads the
+    extended plane's products there). ``work`` is scratch space of shape
+    (8, n).
     """
     n = up_e.shape[0]
     dv_e, dv_o, sv_e, sv_o = work[0], work[1], work[2], work[3]
@@ -1053,31 +1062,20 @@ def _tensor_products(
     _sobel_phase(dv_e[1 : n - 1], dv_o[1 : n - 1], dv_e[2:n], dr_o[1 : n - 1])
     _difference(sv_o[1 : n - 1], sv_o[: n - 2], dc_e[1 : n - 1])
     _difference(sv_e[2:n], sv_e[1 : n - 1], dc_o[1 : n - 1])
-    # inside the plane only: phase columns origin + k in [0, width)
-    k0 = min(max(1, -origin), n - 1)
-    k1 = max(min(n - 1, width - origin), k0)
-    for c in range(3):
-        for k in range(1, k0):
-            products_e[c, k] = 0.0
-            products_o[c, k] = 0.0
-        for k in range(k1, n - 1):
-            products_e[c, k] = 0.0
-            products_o[c, k] = 0.0
-    if k1 > k0:
-        _products(
-            dr_e[k0:k1],
-            dc_e[k0:k1],
-            products_e[0, k0:k1],
-            products_e[1, k0:k1],
-            products_e[2, k0:k1],
-        )
-        _products(
-            dr_o[k0:k1],
-            dc_o[k0:k1],
-            products_o[0, k0:k1],
-            products_o[1, k0:k1],
-            products_o[2, k0:k1],
-        )
+    _products(
+        dr_e[1 : n - 1],
+        dc_e[1 : n - 1],
+        products_e[0, 1 : n - 1],
+        products_e[1, 1 : n - 1],
+        products_e[2, 1 : n - 1],
+    )
+    _products(
+        dr_o[1 : n - 1],
+        dc_o[1 : n - 1],
+        products_o[0, 1 : n - 1],
+        products_o[1, 1 : n - 1],
+        products_o[2, 1 : n - 1],
+    )
     return m
 
 
@@ -1160,23 +1158,33 @@ def _tensor_tile(
     doubled_height = 2 * height
     radius = weights.shape[0] - 1
     ring_rows = 2 * radius + 1
-    zero_slot = ring_rows
-    pad = radius // 2 + 1
+    # every doubled row above the plane has the products of the one just above it, and
+    # every row below that of the one just below: one slot each
+    top_slot = ring_rows
+    bottom_slot = ring_rows + 1
+    pad = radius // 2 + 2  # the Gaussian's reach on both phases, and the Sobel's column
     tile = x1 - x0
     origin = x0 - pad  # phase column of local index 0
     n = tile + 2 * pad
-    rows_e = np.zeros((4, n), dtype=np.float32)  # doubled rows: slots 0..2 by row % 3, 3 zero
-    rows_o = np.zeros((4, n), dtype=np.float32)
+    rows_e = np.zeros((3, n), dtype=np.float32)  # doubled rows, in slots row % 3
+    rows_o = np.zeros((3, n), dtype=np.float32)
     row_of_slot = np.full(3, -1, dtype=np.int64)
     line = np.empty(n + 2, dtype=np.float32)
     slots = np.empty(3, dtype=np.int64)
     work = np.zeros((8, n), dtype=np.float32)
     products_e = np.zeros((3, n), dtype=np.float32)
     products_o = np.zeros((3, n), dtype=np.float32)
-    ring = np.zeros((3, ring_rows + 1, tile), dtype=np.float32)
+    ring = np.zeros((3, ring_rows + 2, tile), dtype=np.float32)
     tensor = np.empty((3, tile), dtype=np.float32)
     lower = np.empty(radius + 1, dtype=np.int64)
     upper = np.empty(radius + 1, dtype=np.int64)
+    for outside, slot in ((-1, top_slot), (doubled_height, bottom_slot)):
+        _doubled_products(
+            plane, scale, outside, origin, rows_e, rows_o, row_of_slot, line, slots, work,
+            products_e, products_o,
+        )  # fmt: skip
+        for c in range(3):
+            _gauss_even(products_e[c], products_o[c], pad, weights, ring[c, slot])
     next_row = max(0, 2 * y0 - radius)
     for y in range(y0, y1):
         if not needed[y, tile_index]:
@@ -1195,9 +1203,9 @@ def _tensor_tile(
             next_row += 1
         for j in range(radius + 1):
             r = centre - j
-            lower[j] = r % ring_rows if r >= 0 else zero_slot
+            lower[j] = r % ring_rows if r >= 0 else top_slot
             r = centre + j
-            upper[j] = r % ring_rows if r < doubled_height else zero_slot
+            upper[j] = r % ring_rows if r < doubled_height else bottom_slot
         for c in range(3):
             _gauss_rows(ring[c], lower, upper, centre % ring_rows, weights, tensor[c])
         if mode == TENSOR_COMPONENTS:
@@ -1282,10 +1290,13 @@ def _derive_where(rr, rc, cc, mask, start, strength, coherent, cosine, sine):
 def orientation_band(plane, scale, weights, mode, needed, out0, out1, out2, out3, y0, y1):
     """Structure tensor of ``zoom(plane, 2)`` at the even doubled pixels of rows ``[y0, y1)``.
 
-    ``skimage.feature.structure_tensor(doubled, sigma, order="rc")[::2, ::2]``:
-    Sobel derivatives and a Gaussian (``weights``, on the doubled grid), both
-    with zero padding, in float32; only the samples on the original grid are
-    computed (the Gaussian's passes at even columns, then at even rows).
+    ``skimage.feature.structure_tensor(doubled, sigma, order="rc")[::2, ::2]``
+    of the doubled plane extended by its edge values (``np.pad(doubled, p,
+    mode="edge")`` for any ``p`` beyond the Gaussian's reach, cropped back):
+    Sobel derivatives and a Gaussian (``weights``, on the doubled grid) that
+    see no edge at the frame, in float32; only the samples on the original
+    grid are computed (the Gaussian's passes at even columns, then at even
+    rows).
     ``mode`` TENSOR_COMPONENTS writes jrr, jrc, jcc to ``out0..out2``;
     TENSOR_DERIVED writes the strength ``l1 + l2``, coherence times strength,
     and cos, sin of twice the angle to ``out0..out3``. The plane is first
@@ -1321,14 +1332,12 @@ def decimated_sigma(sigma: float) -> float:
 def _doubled_products(
     plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work, products_e, products_o
 ):
-    """The tensor products of doubled row ``i`` (see :func:`_tensor_products`); the doubled
-    rows it reads are kept in slots ``i % 3`` of ``rows_e``/``rows_o`` (slot 3: zeros)."""
+    """The tensor products of doubled row ``i`` of the extended plane (see
+    :func:`_tensor_products`; any ``i``: a row outside the plane reads its nearest rows);
+    the doubled rows it reads are kept in slots ``r % 3`` of ``rows_e``/``rows_o``."""
     doubled_height = 2 * plane.shape[0]
     for k in range(3):
-        r = i - 1 + k
-        if r < 0 or r >= doubled_height:
-            slots[k] = 3
-            continue
+        r = min(max(i - 1 + k, 0), doubled_height - 1)
         slot = r % 3
         if row_of_slot[slot] != r:
             _doubled_row(plane, scale, r, origin, line, rows_e[slot], rows_o[slot])
@@ -1341,8 +1350,6 @@ def _doubled_products(
         rows_o[slots[1]],
         rows_e[slots[2]],
         rows_o[slots[2]],
-        origin,
-        plane.shape[1],
         work,
         products_e,
         products_o,
@@ -1380,10 +1387,8 @@ def _add_doubled(
     weight,
     out,
 ):
-    """``out += weight *`` doubled row ``i``'s products filtered 1-2-1 across columns (zero
-    outside the doubled plane)."""
-    if i < 0 or i >= 2 * plane.shape[0]:
-        return
+    """``out += weight *`` doubled row ``i``'s products (of the extended plane: any ``i``)
+    filtered 1-2-1 across columns."""
     _doubled_products(
         plane,
         scale,
@@ -1424,13 +1429,15 @@ def _decimated_tile(
     height = plane.shape[0]
     radius = weights.shape[0] - 1
     ring_rows = 2 * radius + 1
-    zero_slot = ring_rows
+    # rows before 0 (doubled rows before 0 only) are all alike, as rows after ``height``
+    top_slot = ring_rows
+    bottom_slot = ring_rows + 1
     pad = radius + 2
     tile = x1 - x0
     origin = x0 - pad  # phase column of local index 0
     n = tile + 2 * pad
-    rows_e = np.zeros((4, n), dtype=np.float32)
-    rows_o = np.zeros((4, n), dtype=np.float32)
+    rows_e = np.zeros((3, n), dtype=np.float32)
+    rows_o = np.zeros((3, n), dtype=np.float32)
     row_of_slot = np.full(3, -1, dtype=np.int64)
     line = np.empty(n + 2, dtype=np.float32)
     slots = np.empty(3, dtype=np.int64)
@@ -1438,20 +1445,29 @@ def _decimated_tile(
     products_e = np.zeros((3, n), dtype=np.float32)
     products_o = np.zeros((3, n), dtype=np.float32)
     sampled = np.zeros((3, n), dtype=np.float32)  # the products filtered 1-2-1 both ways
-    ring = np.zeros((3, ring_rows + 1, tile), dtype=np.float32)
+    ring = np.zeros((3, ring_rows + 2, tile), dtype=np.float32)
     tensor = np.empty((3, tile), dtype=np.float32)
     lower = np.empty(radius + 1, dtype=np.int64)
     upper = np.empty(radius + 1, dtype=np.int64)
     quarter = np.float32(0.0625)  # (1/4) * (1/4): the two 1-2-1 filters' norms
     below = np.zeros((3, n), dtype=np.float32)
+    # the rows outside the plane's: those before 0 read doubled rows before 0 only, whose
+    # products are alike, as those after ``height`` (the 1-2-1 weights' sum: 4 quarters)
+    for doubled, slot in ((-1, top_slot), (2 * height, bottom_slot)):
+        sampled[:] = 0.0
+        _add_doubled(
+            plane, scale, doubled, origin, rows_e, rows_o, row_of_slot, line, slots, work,
+            products_e, products_o, np.float32(4.0) * quarter, sampled,
+        )  # fmt: skip
+        for c in range(3):
+            _gauss_line(sampled[c, pad - radius :], radius, weights, ring[c, slot])
     below_row = -3
     next_row = max(0, y0 - radius)
     for y in range(y0, y1):
         if not needed[y, tile_index]:
             continue
         next_row = max(next_row, y - radius)
-        # row ``height`` (outside) holds a quarter of doubled row 2 height - 1, as column
-        # ``width`` holds a quarter of doubled column 2 width - 1 (see _prefilter_columns)
+        # row ``height`` reads doubled row 2 height - 1 of the plane, and two after it
         last_row = min(y + radius, height)
         while next_row <= last_row:
             row = next_row
@@ -1520,9 +1536,9 @@ def _decimated_tile(
             next_row += 1
         for j in range(radius + 1):
             r = y - j
-            lower[j] = r % ring_rows if r >= 0 else zero_slot
+            lower[j] = r % ring_rows if r >= 0 else top_slot
             r = y + j
-            upper[j] = r % ring_rows if r <= height else zero_slot
+            upper[j] = r % ring_rows if r <= height else bottom_slot
         for c in range(3):
             _gauss_rows(ring[c], lower, upper, y % ring_rows, weights, tensor[c])
         if mode == TENSOR_COMPONENTS:
@@ -1559,11 +1575,11 @@ def decimated_tensor_band(
 ):
     """The contours' structure tensor on rows ``[y0, y1)``, decimated.
 
-    The Sobel products of ``zoom(plane, 2)`` (as :func:`orientation_band`
-    computes them, zero outside the plane) are filtered with the 1-2-1
-    kernel / 4 along both axes of the doubled grid and sampled at its even
-    pixels (the original grid); a Gaussian of ``weights`` (original pixels,
-    zero padding) follows. Filter and Gaussian have the variance of the
+    The Sobel products of ``zoom(plane, 2)`` extended by its edge values (as
+    :func:`orientation_band` computes them, inside the plane and out) are
+    filtered with the 1-2-1 kernel / 4 along both axes of the doubled grid
+    and sampled at its even pixels (the original grid); a Gaussian of
+    ``weights`` (original pixels, over the extended products) follows. Filter and Gaussian have the variance of the
     doubled-grid Gaussian of :func:`orientation_band` when ``weights`` are
     those of :func:`decimated_sigma`; the kernels differ by a few per cent
     of a weight (about 1 % at sigma 4, 3 % at sigma 2: the doubled grid's
