@@ -1579,9 +1579,10 @@ def decimated_tensor_band(
     :func:`orientation_band` computes them, inside the plane and out) are
     filtered with the 1-2-1 kernel / 4 along both axes of the doubled grid
     and sampled at its even pixels (the original grid); a Gaussian of
-    ``weights`` (original pixels, over the extended products) follows. Filter and Gaussian have the variance of the
-    doubled-grid Gaussian of :func:`orientation_band` when ``weights`` are
-    those of :func:`decimated_sigma`; the kernels differ by a few per cent
+    ``weights`` (original pixels, over the extended products) follows.
+    Filter and Gaussian have the variance of the doubled-grid Gaussian of
+    :func:`orientation_band` when ``weights`` are those of
+    :func:`decimated_sigma`; the kernels differ by a few per cent
     of a weight (about 1 % at sigma 4, 3 % at sigma 2: the doubled grid's
     Gaussian linearly interpolated between its even taps), and the
     Gaussian has half the taps, on a quarter of the pixels. ``mode``,
