@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 import threading
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -237,16 +236,14 @@ def parse_sweep_values(parameter: str, text: str) -> list[Any]:
     Raises
     ------
     ValueError
-        If the text holds no value or a value of the wrong type.
+        If the text holds no value, a value of the wrong type, or a decimal
+        comma (``"0,04"``: see :meth:`Parameter.parse_values`).
     """
     if parameter not in SWEEPABLE:
         raise ValueError(
             f"cannot sweep {parameter!r}: choose one of {', '.join(SWEEP_PARAMETERS)}"
         )
-    items = [item for item in re.split(r"[,;\s]+", text.strip()) if item]
-    if not items:
-        raise ValueError(f"type at least one value of {parameter} to sweep, e.g. 0.47, 0.50, 0.53")
-    return [SWEEPABLE[parameter].parse(item) for item in items]
+    return SWEEPABLE[parameter].parse_values(text)
 
 
 def default_sweep_text(parameter: str, current: Any) -> str:

@@ -259,6 +259,17 @@ def test_sweep(tmp_path, spec, parameter, values):
     np.testing.assert_array_equal(sweep, labyrinth_sweep(image, parameter, values))
 
 
+
+def test_a_sweep_with_a_decimal_comma_is_refused_before_rendering(tmp_path, capsys):
+    # --sweep variance_threshold=0,04 rendered the sweep [0, 4]
+    write_image(tmp_path / "in.tif", gradient_image(np.uint16))
+    argv = ["render", str(tmp_path / "in.tif"), "-o", str(tmp_path / "out"), "--sweep"]
+    assert main([*argv, "variance_threshold=0,04"]) == 2
+    assert "'0,04' has a decimal comma" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+    assert main([*argv, "variance_threshold=0.02 0.04"]) == 0  # spaces separate, as in napari
+    assert read_image(tmp_path / "out" / "in_labyrinth_sweep.tif").shape[0] == 2
+
 def test_stack_and_sweep_of_a_png_need_a_tiff_output(tmp_path, capsys):
     write_image(tmp_path / "in.png", gradient_image(np.uint8))
     for variant in (["--stack"], ["--sweep", "seed=1,2"]):

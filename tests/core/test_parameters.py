@@ -117,6 +117,46 @@ def test_bad_text_values_name_the_parameter_and_its_bounds(name, text, match):
         parameter.parse(text)
 
 
+
+@pytest.mark.parametrize(
+    ("name", "text", "values"),
+    [
+        ("variance_threshold", "0.47, 0.50;0.53", [0.47, 0.5, 0.53]),
+        ("variance_threshold", "0.02,0.04", [0.02, 0.04]),
+        ("variance_threshold", "0, 1", [0.0, 1.0]),
+        ("mean_threshold", "\t0.1\n0.2 ", [0.1, 0.2]),
+        ("passes", "1,2,04", [1, 2, 4]),  # whole numbers have no decimal comma
+        ("seed", "3,4", [3, 4]),
+        ("border", "inside, wrap", ["inside", "wrap"]),
+    ],
+)
+def test_values_typed_as_text_split_at_commas_semicolons_and_spaces(name, text, values):
+    assert SWEEPABLE[name].parse_values(text) == values
+
+
+@pytest.mark.parametrize(
+    ("text", "read"),
+    [
+        ("0,04", "0 and 04"),  # was the sweep [0, 4]
+        ("0,02 0,04", "0, 02, 0 and 04"),
+        ("0.02,0,04", "0.02, 0 and 04"),
+        ("0,5", "0 and 5"),
+        ("1,2", "1 and 2"),
+    ],
+)
+def test_a_decimal_comma_is_refused_not_read_as_two_values(text, read):
+    with pytest.raises(ValueError) as error:
+        SWEEPABLE["variance_threshold"].parse_values(text)
+    message = str(error.value)
+    assert message.startswith(f"variance_threshold: {text!r} has a decimal comma")
+    assert f"read as the values {read})" in message and "with a point" in message
+
+
+def test_no_value_typed_is_refused_naming_the_parameter():
+    for text in ("", " , ;"):
+        with pytest.raises(ValueError, match="at least one value of seed to sweep"):
+            SWEEPABLE["seed"].parse_values(text)
+
 def test_bounds_hold_in_the_api():
     base = dict(PRESETS["paper"])
     with pytest.raises(ValueError, match="passes must be between 0 and 1000"):

@@ -393,4 +393,4 @@ def _sweep_values(args: argparse.Namespace, given: dict[str, Any]) -> tuple[str,
         raise UsageError(f"--sweep: unknown parameter {name!r}; use one of {', '.join(SWEEPABLE)}")
     if name in given or (name == "seed" and args.seed is not None):
         raise UsageError(f"--sweep varies {name}; do not also give it a value")
-    return name, [SWEEPABLE[name].parse(text) for text in texts.split(",")]
+    return name, SWEEPABLE[name].parse_values(texts)

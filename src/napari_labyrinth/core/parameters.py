@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import re
 from collections.abc import Mapping
 from types import MappingProxyType
 from typing import Any
@@ -193,6 +194,48 @@ class Parameter:
             raise ValueError(str(exc)) from None
         return tuple(value) if isinstance(value, list) else value
 
+    def parse_values(self, text: str) -> list[Any]:
+        """Values typed as text, separated by commas, semicolons or spaces, each as :meth:`parse`.
+
+        ``"0.47, 0.50;0.53"`` gives ``[0.47, 0.5, 0.53]``. A decimal comma
+        is refused, not read as two values: a comma between digits in a text
+        with no decimal point (``"0,04"``), or a value of this parameter with
+        a leading zero (``"04"``).
+
+        Raises
+        ------
+        ValueError
+            Naming the parameter: no value, a value :meth:`parse` refuses, or
+            a decimal comma.
+        """
+        items = [item for item in _VALUE_SEPARATORS.split(text.strip()) if item]
+        if not items:
+            raise ValueError(
+                f"type at least one value of {self.name} to sweep, e.g. {self._example}"
+            )
+        if self.kind == "float" and (
+            ("." not in text and _DIGIT_COMMA_DIGIT.search(text))
+            or any(_LEADING_ZERO.match(item) for item in items)
+        ):
+            read = " and ".join([", ".join(items[:-1]), items[-1]] if len(items) > 1 else items)
+            raise ValueError(
+                f"{self.name}: {text.strip()!r} has a decimal comma (it would be read as the "
+                f"values {read}): write decimals with a point and separate the values with "
+                f"commas or spaces, e.g. {self._example}"
+            )
+        return [self.parse(item) for item in items]
+
+    @property
+    def _example(self) -> str:
+        """Values of this parameter as one would type them."""
+        if self.kind == "float":
+            return "0.47, 0.50, 0.53"
+        if self.kind == "choice":
+            return ", ".join(self.choices)
+        if self.kind == "bool":
+            return "false, true"
+        return "1, 2, 3"
+
     @property
     def expected(self) -> str:
         """What a text value must be, in words."""
@@ -204,6 +247,14 @@ class Parameter:
             "tone_ranges": "a count of ranges or comma-separated limits",
             "tones": "pairs of tones",
         }.get(self.kind) or " or ".join(self.choices)
+
+
+#: What separates the values of a sweep typed as text.
+_VALUE_SEPARATORS = re.compile(r"[,;\s]+")
+#: A comma between digits: a decimal comma where the text has no decimal point.
+_DIGIT_COMMA_DIGIT = re.compile(r"\d,\d")
+#: A number with a leading zero (``04``): what is left of ``0,04`` split at its comma.
+_LEADING_ZERO = re.compile(r"[+-]?0\d")
 
 
 def _bound_text(value: float) -> str:
