@@ -349,6 +349,11 @@ def test_bad_choices_are_reported_by_the_plan():
         make_plan(snapshot, Choices(mode="sweep", sweep_text="0.04, -1"))
     with pytest.raises((TypeError, ValueError), match="passes"):
         make_plan(snapshot, Choices(overrides={"passes": -1}))
+    with pytest.raises(TypeError, match="seed must be an integer, got 2.7"):  # was seed 2
+        make_plan(snapshot, Choices(seed=2.7))
+    with pytest.raises(ValueError, match="seed must be between 0 and"):
+        make_plan(snapshot, Choices(seed=-1))
+    assert make_plan(snapshot, Choices(seed=np.int64(3))).arguments["seed"] == 3
 
 
 def test_the_current_plane_is_rendered_alone_at_its_place():

@@ -570,7 +570,7 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     _check_input(snapshot, choices.mode)
     mode, preset, edits = choices.mode, choices.preset, dict(choices.overrides)
     resolved = resolve_parameters(preset, **edits)
-    seed = int(choices.seed)
+    seed = SWEEPABLE["seed"].validate(choices.seed)  # 2.7 was truncated to 2
     typed = choices.tone_limits
     limits = tone_limits(snapshot.contrast_limits if typed is None else None, typed)
     arguments: dict[str, Any] = {"preset": preset, "seed": seed, **resolved.as_dict()}
