@@ -167,9 +167,19 @@ def test_find_window_names_bad_arguments():
         find_window(image, widen=-1)
     with pytest.raises(ValueError, match="thresholds"):
         find_window(image, thresholds=[0.2, 0.1])
+    with pytest.raises(ValueError, match="thresholds must be finite and between 0 and 1e\\+06"):
+        find_window(image, thresholds=[0.1, 2e6])  # was probed: its V could not render
     with pytest.raises(ValueError, match="passes"):
         find_window(image, passes=-1)
 
+
+
+def test_the_v_probed_above_the_top_stay_within_vs_bounds():
+    from napari_labyrinth.window import _above
+
+    assert _above([0.02, 0.04], 3) == [0.08, 0.16, 0.32]
+    assert _above([2.5e5, 5e5], 3) == [1e6]  # 2e6 and 4e6 are beyond V's bound
+    assert _above([5e5, 1e6], 3) == []
 
 @pytest.mark.parametrize("shape", [(2, 2), (1, 40), (5, 2, 9)])
 def test_planes_too_small_to_measure_are_refused_naming_the_image(shape):

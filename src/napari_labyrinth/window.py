@@ -31,7 +31,7 @@ import numpy as np
 from . import metrics
 from ._engine import run_pass
 from .api import _prepare
-from .core.parameters import FLOAT_DECIMALS, SEED, WORKERS, as_float
+from .core.parameters import FLOAT_DECIMALS, PARAMETERS, SEED, WORKERS, as_float
 from .core.planes import normalise_channel_axis
 from .core.presets import DEFAULT_PRESET, resolve_parameters
 from .lazy import checked_lazy, is_lazy
@@ -334,6 +334,10 @@ def _positive_int(name: str, value: Any, low: int) -> int:
     return int(value)
 
 
+#: The variance threshold's entry in the table: its bounds bound the V probed.
+_V = PARAMETERS["variance_threshold"]
+
+
 def _thresholds(thresholds: Any, centre: float) -> list[float]:
     if thresholds is None:
         return sorted({round(centre * factor, FLOAT_DECIMALS) for factor in THRESHOLD_FACTORS})
@@ -344,8 +348,8 @@ def _thresholds(thresholds: Any, centre: float) -> list[float]:
         if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
             raise TypeError(f"thresholds must hold numbers, got {value!r}")
         number = as_float(value)
-        if not (math.isfinite(number) and number >= 0):
-            raise ValueError(f"thresholds must be finite and >= 0, got {value!r}")
+        if not (math.isfinite(number) and _V.low <= number <= _V.high):
+            raise ValueError(f"thresholds must be finite and {_V.bounds_text}, got {value!r}")
         values.append(number)
     if not values:
         raise ValueError("thresholds must not be empty")
@@ -357,11 +361,12 @@ def _thresholds(thresholds: Any, centre: float) -> list[float]:
 def _above(values: list[float], steps: int) -> list[float]:
     """Up to ``steps`` V above the top of ``values``, its last step continued (a ratio;
     sqrt(2) from a single V), rounded to ``FLOAT_DECIMALS``; those that rounding leaves
-    on the top are dropped (a top of 0 has nothing above it on a ratio scale)."""
+    on the top are dropped (a top of 0 has nothing above it on a ratio scale), as are those
+    beyond V's bound."""
     top = values[-1]
     ratio = top / values[-2] if len(values) > 1 and values[-2] > 0 else math.sqrt(2.0)
     above = {round(top * ratio**k, FLOAT_DECIMALS) for k in range(1, steps + 1)}
-    return sorted(v for v in above if v > top)
+    return sorted(v for v in above if top < v <= _V.high)
 
 
 def _sampled_planes(image, channel_axis, alpha, colour, tone_limits, max_planes):
