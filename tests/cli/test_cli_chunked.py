@@ -265,12 +265,17 @@ def test_refuses_to_overwrite_the_input_store(tmp_path, capsys):
     assert render(source, "-o", source, *OPTIONS) == 1
     assert "input" in capsys.readouterr().err
     np.testing.assert_array_equal(read_image(source), image)
-    # and the store holding an input array, too
+    # and the group holding an input array, even with --overwrite: it replaced the input
+    # and every other member of the group
     group = zarr.open_group(str(tmp_path / "group.zarr"), mode="w")
     group.create_array("raw", shape=image.shape, dtype=image.dtype)[...] = image
-    assert render(tmp_path / "group.zarr" / "raw", "-o", tmp_path / "group.zarr") == 1
-    assert "input" in capsys.readouterr().err
-    assert sorted(os.listdir(tmp_path / "group.zarr")) == ["raw", "zarr.json"]
+    group.create_array("other", shape=(4, 4), dtype="u1")[...] = 7
+    for overwrite in ([], ["--overwrite"]):
+        argv = [tmp_path / "group.zarr" / "raw", "-o", tmp_path / "group.zarr", *overwrite]
+        assert render(*argv, *OPTIONS) == 2
+        assert "would replace the zarr store" in capsys.readouterr().err
+        assert sorted(os.listdir(tmp_path / "group.zarr")) == ["other", "raw", "zarr.json"]
+        np.testing.assert_array_equal(read_image(tmp_path / "group.zarr" / "raw"), image)
     # with --overwrite the input is read whole before its store is replaced
     assert render(source, "-o", source, "--overwrite", *OPTIONS) == 0
     np.testing.assert_array_equal(read_image(source), labyrinth(image, **API_OPTIONS))

@@ -366,6 +366,13 @@ def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
                     f"which holds the input {holder} (it would change the input, and its "
                     "record's checksum): name an output outside it"
                 )
+            if key == store_key and path_key(holder) != store_key:
+                # the input is one array of a group: the group's other members would go too
+                raise UsageError(
+                    f"the result of {job.input} would replace the zarr store {store}, which "
+                    f"holds the input {holder} and whatever else is in it: name an output "
+                    "outside it"
+                )
         if key in seen:
             raise UsageError(f"{seen[key]} and {job.input} would both be rendered to {job.output}")
         seen[key] = job.input
