@@ -1179,6 +1179,10 @@ def _tensor_tile(
     lower = np.empty(radius + 1, dtype=np.int64)
     upper = np.empty(radius + 1, dtype=np.int64)
     for outside, slot in ((-1, top_slot), (doubled_height, bottom_slot)):
+        if (outside < 0 and 2 * y0 - radius >= 0) or (
+            outside >= 0 and 2 * (y1 - 1) + radius < doubled_height
+        ):
+            continue  # no row of this band reads it
         _doubled_products(
             plane, scale, outside, origin, rows_e, rows_o, row_of_slot, line, slots, work,
             products_e, products_o,
@@ -1454,6 +1458,8 @@ def _decimated_tile(
     # the rows outside the plane's: those before 0 read doubled rows before 0 only, whose
     # products are alike, as those after ``height`` (the 1-2-1 weights' sum: 4 quarters)
     for doubled, slot in ((-1, top_slot), (2 * height, bottom_slot)):
+        if (doubled < 0 and y0 - radius >= 0) or (doubled >= 0 and y1 - 1 + radius <= height):
+            continue  # no row of this band reads it
         sampled[:] = 0.0
         _add_doubled(
             plane, scale, doubled, origin, rows_e, rows_o, row_of_slot, line, slots, work,
