@@ -294,3 +294,45 @@ def test_no_icc_profile_is_invented(tmp_path):
     assert render(source, "-o", out) == EXIT_OK
     with tifffile.TiffFile(out) as tif:
         assert 34675 not in tif.pages[0].tags
+
+
+# -- channel names --------------------------------------------------------------------------------
+
+
+def _named_ome_tiff(path, names=("DAPI", "GFP")):
+    planes = np.stack([CAM, CAM.T])[: len(names)]
+    tifffile.imwrite(
+        path, planes, ome=True, metadata={"axes": "CYX", "Channel": {"Name": list(names)}}
+    )
+
+
+@pytest.mark.parametrize(
+    "output,variant",
+    [("out.ome.tif", []), ("out.zarr", []), ("stack.ome.tif", ["--stack"]),
+     ("stack.zarr", ["--stack"])],
+)  # fmt: skip
+def test_ome_channel_names_are_kept(tmp_path, output, variant):
+    # an OME-TIFF's DAPI and GFP channels came out unnamed
+    pytest.importorskip("zarr")
+    source = tmp_path / "in.ome.tif"
+    _named_ome_tiff(source)
+    assert read_metadata(source).channel_names == ("DAPI", "GFP")
+    assert render(source, "-o", tmp_path / output, *variant) == EXIT_OK
+    kept = read_metadata(tmp_path / output)
+    assert kept.channel_names == ("DAPI", "GFP") and kept.axes.endswith("CYX")
+    back = tmp_path / "back.ome.tif"  # and from the zarr store (omero labels) to a TIFF
+    assert render(tmp_path / output, "-o", back) == EXIT_OK
+    assert read_metadata(back).channel_names == ("DAPI", "GFP")
+
+
+def test_channel_names_are_kept_only_when_they_name_every_channel(tmp_path):
+    metadata = ImageMetadata(axes="CYX", ome=True, channel_names=("DAPI", "GFP", "RFP"))
+    write_array(tmp_path / "three.ome.tif", np.stack([CAM, CAM]), metadata=metadata)
+    assert read_metadata(tmp_path / "three.ome.tif").channel_names == ()
+    tifffile.imwrite(  # one channel unnamed: none is named
+        tmp_path / "partly.ome.tif", np.stack([CAM, CAM]), ome=True,
+        metadata={"axes": "CYX", "Channel": {"Name": ["DAPI", ""]}},
+    )  # fmt: skip
+    assert read_metadata(tmp_path / "partly.ome.tif").channel_names == ()
+    tifffile.imwrite(tmp_path / "plain.tif", np.stack([CAM, CAM]))
+    assert read_metadata(tmp_path / "plain.tif").channel_names == ()

@@ -889,7 +889,7 @@ def _create_zarr_array(zarr, directory: str, array, chunks, metadata, values) ->
     filled with ``values`` unless they are None.
     """
     store = directory
-    attributes, component = _zarr_attributes(array.ndim, metadata)
+    attributes, component = _zarr_attributes(array.shape, metadata)
     if component:
         group = zarr.open_group(store=store, mode="w")
         group.attrs.update(attributes)
@@ -1154,6 +1154,13 @@ class ImageMetadata:
         tag, a PNG's iCCP chunk, a JPEG's APP2 segments): the meaning of its
         values, which the rendering keeps. A TIFF, PNG or JPEG output embeds
         it again; a BMP or zarr output holds none.
+    channel_names : tuple of str
+        The names of the channels (``"DAPI"``, ``"GFP"``), one for each
+        plane along the ``C`` axis, or a single one for an image without
+        one: an OME-TIFF's ``Channel`` names, an OME-Zarr image's ``omero``
+        channel labels (or those this package writes beside the axes where
+        OME cannot hold them); ``()`` when the file names none (or not
+        all). A TIFF or zarr output names them again.
     """
 
     axes: str | None = None
@@ -1168,6 +1175,7 @@ class ImageMetadata:
     resolution: tuple[float, float, str | None] | None = None
     imagej: bool = False
     icc_profile: bytes | None = dataclasses.field(default=None, repr=False)
+    channel_names: tuple[str, ...] = ()
 
     def for_output(self, extra_axis: str | None, provenance: dict | None) -> ImageMetadata:
         """The metadata of a rendering of this image.
@@ -1316,6 +1324,7 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
             if photometric != tifffile.PHOTOMETRIC.RGB:  # grey and extra samples
                 channel_axis -= len(axes)  # as a PNG's -1: the command line keeps its alpha
         record, sizes, ome = None, {}, bool(tif.is_ome and tif.ome_metadata)
+        channel_names: tuple[str, ...] = ()
         imagej = None if ome else tif.imagej_metadata
         if ome:
             image = _first(tifffile.xml2dict(tif.ome_metadata)["OME"].get("Image"))
@@ -1325,6 +1334,10 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
                 if size is not None:
                     unit = pixels.get(f"PhysicalSize{letter}Unit", "µm")
                     sizes[letter] = (float(size), _unit_name(unit))
+            channel_names = _names(
+                channel.get("Name") if isinstance(channel, dict) else None
+                for channel in _all(pixels.get("Channel"))
+            )
             annotations = tifffile.xml2dict(tif.ome_metadata)["OME"].get(
                 "StructuredAnnotations", {}
             )
@@ -1341,6 +1354,8 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
             record = _record(description.get(KEY), path)
             for letter, (size, unit) in description.get("pixel_sizes", {}).items():
                 sizes[letter] = (float(size), unit)
+            names = description.get("channel_names")
+            channel_names = _names(names if isinstance(names, list) else ())
     tifffile_default = not ome and imagej is None and set(axes) <= set("QSYX")
     return ImageMetadata(
         axes=None if tifffile_default else axes,
@@ -1357,6 +1372,7 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
         resolution=_tiff_resolution(page),
         icc_profile=icc_profile,
         imagej=imagej is not None,
+        channel_names=channel_names,
     )
 
 
@@ -1634,9 +1650,15 @@ def _zarr_metadata(path: Path) -> ImageMetadata:
     attributes = dict(node.attrs)
     record = attributes.get(KEY, dict(array.attrs).get(KEY))
     multiscales = attributes.get("multiscales") or attributes.get("ome", {}).get("multiscales")
-    axes, sizes, ome = None, {}, False
+    axes, sizes, ome, channel_names = None, {}, False, ()
     if isinstance(node, zarr.Group) and multiscales:
         ome = True
+        omero = attributes.get("omero") or attributes.get("ome", {}).get("omero") or {}
+        channels = omero.get("channels") if isinstance(omero, dict) else None
+        channel_names = _names(
+            channel.get("label") if isinstance(channel, dict) else None
+            for channel in (channels if isinstance(channels, list) else ())
+        )
         scale = multiscales[0]
         names = [a["name"] if isinstance(a, dict) else a for a in scale.get("axes", ())]
         units = [a.get("unit") if isinstance(a, dict) else None for a in scale.get("axes", ())]
@@ -1651,12 +1673,15 @@ def _zarr_metadata(path: Path) -> ImageMetadata:
     elif isinstance(attributes.get("axes"), str) and len(attributes["axes"]) == array.ndim:
         axes = attributes["axes"]  # written by _zarr_attributes where OME-Zarr does not fit
         sizes = {k: (float(v[0]), v[1]) for k, v in attributes.get("pixel_sizes", {}).items()}
+        names = attributes.get("channel_names")
+        channel_names = _names(names if isinstance(names, list) else ())
     return ImageMetadata(
         axes=axes,
         pixel_sizes=sizes,
         ome=ome,
         provenance=_record(record, path),
         ambiguous=_ambiguous(array.shape, None, axes),
+        channel_names=channel_names,
     )
 
 
@@ -1665,6 +1690,22 @@ def _zarr_scale(dataset: dict) -> list[float] | None:
         if transform.get("type") == "scale":
             return transform.get("scale")
     return None
+
+
+def _names(names) -> tuple[str, ...]:
+    """Channel names, all of them or none: ``()`` when one is missing or empty."""
+    names = tuple(names)
+    if not names or not all(isinstance(name, str) and name for name in names):
+        return ()
+    return names
+
+
+def _named_channels(metadata: ImageMetadata, shape: Sequence[int]) -> tuple[str, ...]:
+    """The channel names an OME output of ``shape`` keeps: one for each plane along its C
+    axis (one for an image without one), else none."""
+    names, axes = metadata.channel_names, metadata.axes or ""
+    count = int(shape[axes.index("C")]) if "C" in axes and len(axes) == len(shape) else 1
+    return names if len(names) == count else ()
 
 
 def _first(value: Any) -> Any:
@@ -1718,6 +1759,8 @@ def _tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | No
             ome[f"PhysicalSize{letter}"] = size
             if unit is not None:
                 ome[f"PhysicalSize{letter}Unit"] = _unit_symbol(unit)
+        if names := _named_channels(metadata, shape):
+            ome["Channel"] = {"Name": list(names)}
         if record is not None:
             ome["CommentAnnotation"] = {"Namespace": KEY, "Value": to_json(record)}
         options.update(ome=True, metadata=ome)
@@ -1731,6 +1774,8 @@ def _tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | No
             description["axes"] = metadata.axes  # tifffile reads it back as the series' axes
             if metadata.pixel_sizes:
                 description["pixel_sizes"] = {k: list(v) for k, v in metadata.pixel_sizes.items()}
+            if names := _named_channels(metadata, shape):
+                description["channel_names"] = list(names)
         options.update(ome=False, metadata=description)
     return options
 
@@ -1834,7 +1879,7 @@ def _ome_tiff_ok(metadata: ImageMetadata, shape: Sequence[int]) -> bool:
     return len(metadata.axes) == len(shape)
 
 
-def _zarr_attributes(ndim: int, metadata: ImageMetadata | None) -> tuple[dict, str]:
+def _zarr_attributes(shape: Sequence[int], metadata: ImageMetadata | None) -> tuple[dict, str]:
     """The attributes of a zarr output and the array's path in it ("" for a plain array).
 
     An OME-Zarr image (version 0.5: a group with ``ome.multiscales`` and its
@@ -1850,11 +1895,13 @@ def _zarr_attributes(ndim: int, metadata: ImageMetadata | None) -> tuple[dict, s
         return attributes, ""
     if metadata.provenance is not None:
         attributes[KEY] = metadata.provenance
-    axes = metadata.axes
+    axes, ndim = metadata.axes, len(shape)
     if not (metadata.ome and axes and len(axes) == ndim and _ome_zarr_ok(axes)):
         if axes and len(axes) == ndim:  # read back by _zarr_metadata
             attributes["axes"] = axes
             attributes["pixel_sizes"] = {k: list(v) for k, v in metadata.pixel_sizes.items()}
+            if names := _named_channels(metadata, shape):
+                attributes["channel_names"] = list(names)
         return attributes, ""
     entries, scale = [], []
     for letter in axes:
@@ -1877,6 +1924,8 @@ def _zarr_attributes(ndim: int, metadata: ImageMetadata | None) -> tuple[dict, s
             }
         ],
     }
+    if names := _named_channels(metadata, shape):
+        attributes["ome"]["omero"] = {"channels": [{"label": name} for name in names]}
     return attributes, "0"
 
 
