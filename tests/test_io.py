@@ -325,6 +325,40 @@ def test_metadata_of_each_file_case(tmp_path, case, suffix, axes, channel_axis, 
     assert metadata.provenance is None
 
 
+
+def test_an_ome_zarr_multiscales_own_scale_multiplies_its_datasets(tmp_path):
+    # the multiscale's coordinate transformations apply after the dataset's: 0.5 um
+    # sampled every 2 pixels is 1 um a pixel (0.5 was recorded)
+    import zarr
+
+    group = zarr.open_group(tmp_path / "image.zarr", mode="w")
+    group.create_array("s0", shape=(12, 17), dtype="uint16")
+    axes = [{"name": n, "type": "space", "unit": "micrometer"} for n in "yx"]
+    dataset = {"path": "s0", "coordinateTransformations": [{"type": "scale", "scale": [0.5, 0.25]}]}
+    group.attrs["ome"] = {
+        "version": "0.5",
+        "multiscales": [
+            {
+                "axes": axes,
+                "datasets": [dataset],
+                "coordinateTransformations": [{"type": "scale", "scale": [2.0, 4.0]}],
+            }
+        ],
+    }
+    sizes = file_io.read_metadata(tmp_path / "image.zarr").pixel_sizes
+    assert sizes == {"Y": (1.0, "micrometer"), "X": (1.0, "micrometer")}
+
+
+def test_a_zarr_group_of_groups_names_the_one_to_give(tmp_path):
+    # a bioformats2raw layout: the message said only "a zarr group without arrays"
+    import zarr
+
+    root = zarr.open_group(tmp_path / "b2r.zarr", mode="w")
+    root.create_group("0").create_array("0", shape=(8, 8), dtype="uint8")
+    root.create_group("OME")
+    with pytest.raises(ImageFileError, match="group of groups \\(0, OME\\).*name one: .*b2r.zarr/0"):
+        file_io.open_image(tmp_path / "b2r.zarr")
+
 @pytest.mark.parametrize("name", ["out.tif", "out.ome.tif", "out.png", "out.jpg", "out.zarr"])
 def test_provenance_round_trip(tmp_path, name):
     array = RNG.integers(0, 256, (4, 5), dtype=np.uint8)

@@ -547,6 +547,12 @@ def _array_of_group(path: Path, group):
     if len(arrays) == 1:
         return group[arrays[0]]
     if not arrays:
+        groups = sorted(group.group_keys())
+        if groups:  # a bioformats2raw layout: its images are groups 0, 1, ...
+            shown = ", ".join(groups[:5]) + (", ..." if len(groups) > 5 else "")
+            raise ImageFileError(
+                path, f"is a zarr group of groups ({shown}), no array; name one: {path / groups[0]}"
+            )
         raise ImageFileError(path, "is a zarr group without arrays")
     shown = ", ".join(arrays[:5]) + (", ..." if len(arrays) > 5 else "")
     raise ImageFileError(
@@ -1665,6 +1671,9 @@ def _zarr_metadata(path: Path) -> ImageMetadata:
         if len(names) == array.ndim:
             axes = "".join(name[0].upper() if len(name) == 1 else "Q" for name in names)
             factors = _zarr_scale(scale["datasets"][0])
+            whole = _zarr_scale(scale)  # the multiscale's own transform, after the dataset's
+            if factors is not None and whole is not None and len(whole) == len(factors):
+                factors = [a * b for a, b in zip(factors, whole)]
             for letter, unit, factor in zip(axes, units, factors or (), strict=False):
                 if letter in SPATIAL_AXES:
                     sizes[letter] = (float(factor), unit)
@@ -1685,9 +1694,10 @@ def _zarr_metadata(path: Path) -> ImageMetadata:
     )
 
 
-def _zarr_scale(dataset: dict) -> list[float] | None:
-    for transform in dataset.get("coordinateTransformations", ()):
-        if transform.get("type") == "scale":
+def _zarr_scale(node: dict) -> list[float] | None:
+    """The scale of an OME-Zarr dataset's (or multiscale's) coordinate transformations."""
+    for transform in node.get("coordinateTransformations", ()) or ():
+        if isinstance(transform, dict) and transform.get("type") == "scale":
             return transform.get("scale")
     return None
 
