@@ -334,7 +334,8 @@ def test_an_ome_zarr_multiscales_own_scale_multiplies_its_datasets(tmp_path):
     group = zarr.open_group(tmp_path / "image.zarr", mode="w")
     group.create_array("s0", shape=(12, 17), dtype="uint16")
     axes = [{"name": n, "type": "space", "unit": "micrometer"} for n in "yx"]
-    dataset = {"path": "s0", "coordinateTransformations": [{"type": "scale", "scale": [0.5, 0.25]}]}
+    transforms = [{"type": "scale", "scale": [0.5, 0.25]}]
+    dataset = {"path": "s0", "coordinateTransformations": transforms}
     group.attrs["ome"] = {
         "version": "0.5",
         "multiscales": [
@@ -356,7 +357,8 @@ def test_a_zarr_group_of_groups_names_the_one_to_give(tmp_path):
     root = zarr.open_group(tmp_path / "b2r.zarr", mode="w")
     root.create_group("0").create_array("0", shape=(8, 8), dtype="uint8")
     root.create_group("OME")
-    with pytest.raises(ImageFileError, match="group of groups \\(0, OME\\).*name one: .*b2r.zarr/0"):
+    message = "group of groups \\(0, OME\\).*name one: .*b2r.zarr/0"
+    with pytest.raises(ImageFileError, match=message):
         file_io.open_image(tmp_path / "b2r.zarr")
 
 @pytest.mark.parametrize("name", ["out.tif", "out.ome.tif", "out.png", "out.jpg", "out.zarr"])

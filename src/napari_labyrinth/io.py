@@ -551,7 +551,8 @@ def _array_of_group(path: Path, group):
         if groups:  # a bioformats2raw layout: its images are groups 0, 1, ...
             shown = ", ".join(groups[:5]) + (", ..." if len(groups) > 5 else "")
             raise ImageFileError(
-                path, f"is a zarr group of groups ({shown}), no array; name one: {path / groups[0]}"
+                path,
+                f"is a zarr group of groups ({shown}), no array; name one: {path / groups[0]}",
             )
         raise ImageFileError(path, "is a zarr group without arrays")
     shown = ", ".join(arrays[:5]) + (", ..." if len(arrays) > 5 else "")
