@@ -14,7 +14,7 @@ import pytest
 from napari_labyrinth import __version__, labyrinth, labyrinth_stack, labyrinth_sweep
 from napari_labyrinth.cli import main
 from napari_labyrinth.cli.demo import LABEL_HEIGHT
-from napari_labyrinth.io import read_image, write_image
+from napari_labyrinth.io import read_image, read_metadata, write_image
 
 RNG = np.random.default_rng(42)
 OPTIONS = ["--passes", "2", "--seed", "7"]
@@ -174,6 +174,24 @@ def test_one_input_into_an_existing_directory(tmp_path):
     assert main(["render", str(tmp_path / "a.tif"), "-o", str(tmp_path / "out")]) == 0
     assert (tmp_path / "out" / "a_labyrinth.tif").is_file()
 
+
+
+def test_ome_results_keep_the_ome_suffix_whole(tmp_path):
+    # they were named cells.ome_labyrinth.tif and img.ome_labyrinth.zarr: not .ome.tif
+    import tifffile
+    import zarr
+
+    tifffile.imwrite(
+        tmp_path / "cells.ome.tif", gradient_image(np.uint16)[None], ome=True,
+        metadata={"axes": "CYX"},
+    )  # fmt: skip
+    zarr.create_array(str(tmp_path / "img.ome.zarr"), shape=(16, 16), dtype="u1")[...] = 9
+    write_image(tmp_path / "cells.tif", gradient_image(np.uint8))  # its result: no collision
+    inputs = [tmp_path / name for name in ("cells.ome.tif", "img.ome.zarr", "cells.tif")]
+    assert main(["render", *map(str, inputs), "-o", str(tmp_path / "out"), *OPTIONS]) == 0
+    names = sorted(os.listdir(tmp_path / "out"))
+    assert names == ["cells_labyrinth.ome.tif", "cells_labyrinth.tif", "img_labyrinth.ome.zarr"]
+    assert read_metadata(tmp_path / "out" / "cells_labyrinth.ome.tif").ome
 
 # -- batches, stacks and sweeps -------------------------------------------------------------------
 

@@ -278,15 +278,14 @@ def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
         raise UsageError(f"{output} is not a directory (several inputs need a directory)")
     jobs = []
     for path in inputs:
-        stem, suffix = path.stem, path.suffix
+        stem, suffix = _stem_and_suffix(path)
         try:
             kind = image_format(path)
         except ValueError as exc:
             jobs.append(_Job(path, None, error=describe(exc, path)))
             continue
         if kind == "ZARR":  # store.zarr or store.zarr/array: named after the store
-            store = zarr_root(path)[0]
-            stem, suffix = store.stem, store.suffix
+            stem, suffix = _stem_and_suffix(zarr_root(path)[0])
         elif variant is not None and kind != "TIFF":
             suffix = ".tif"  # a stack or sweep does not fit in a PNG or JPEG
         elif kind in LOSSY_FORMATS + FORMATS_WITHOUT_METADATA and not (
@@ -297,6 +296,16 @@ def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
         jobs.append(_Job(path, output / f"{stem}_labyrinth{tail}{suffix}"))
     _keep_apart(jobs)
     return jobs, output
+
+
+def _stem_and_suffix(path: Path) -> tuple[str, str]:
+    """A file's name without its suffix, and the suffix: ``.ome.tif`` and ``.ome.zarr`` whole,
+    so that a result is named ``cells_labyrinth.ome.tif`` as OME readers expect (it was
+    ``cells.ome_labyrinth.tif``)."""
+    stem, suffix = path.stem, path.suffix
+    if stem.lower().endswith(".ome") and suffix.lower() in (".tif", ".tiff", ".zarr"):
+        return stem[: -len(".ome")], stem[-len(".ome") :] + suffix
+    return stem, suffix
 
 
 def _keep_apart(jobs: list[_Job]) -> None:
@@ -319,9 +328,10 @@ def _keep_apart(jobs: list[_Job]) -> None:
             continue
         root = zarr_root(job.input)
         if root is not None and root[1]:  # an array of a store: its name in the store
-            stem, label = root[0].stem, root[1].replace("/", "_")
+            stem, label = _stem_and_suffix(root[0])[0], root[1].replace("/", "_")
         elif job.input.suffix.lower() != job.output.suffix.lower():
-            stem, label = job.input.stem, job.input.suffix.lstrip(".").lower()
+            stem, suffix = _stem_and_suffix(job.input)
+            label = suffix.lstrip(".").replace(".", "_").lower()
         else:
             continue
         rest = job.output.name[len(stem) :]
