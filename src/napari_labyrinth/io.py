@@ -302,6 +302,15 @@ def _check_storable(
         if array.dtype.kind not in "biuf" and array.dtype.kind != "c":
             raise ImageFileError(path, f"{kind} cannot store {array.dtype} data")
         return
+    if metadata is not None and metadata.ambiguous and metadata.channel_axis is None:
+        if array.ndim == 3:  # read as planes: the format would show them as one colour image
+            planes, rows, columns = array.shape
+            raise ImageFileError(
+                path,
+                f"cannot store {planes} planes of {rows}x{columns} pixels as {kind} (the "
+                f"input's last axis was read as planes); use a .tif or .zarr file, or read "
+                f"that axis as colour (channel_axis=-1, --channel-axis -1)",
+            )
     extra = () if metadata is None else metadata.extra_samples
     if any(sample != "unassalpha" for sample in extra):
         raise ImageFileError(
@@ -1197,6 +1206,33 @@ class ImageMetadata:
         if axis is not None and extra_axis is not None and axis >= 0:
             axis += 1
         return dataclasses.replace(self, axes=axes, channel_axis=axis, provenance=provenance)
+
+    def with_channel_axis(self, axis: int | None) -> ImageMetadata:
+        """The metadata of this image read with the colour axis ``axis`` (None: planes).
+
+        Where ``axis`` is another axis than the file's, the file's samples
+        (extra samples, grey + alpha) describe it no longer, and that axis is
+        the colour samples (``S``) of the axes, or another axis (``Q``) for
+        the file's colour axis read as planes: an output stores the colour
+        as it was rendered (an RGB TIFF, not planes of 3 pixels).
+        """
+        if axis == self.channel_axis:
+            return self
+        axes = self.axes
+        if axes is not None:
+            letters = ["Q" if letter == "S" else letter for letter in axes]
+            if axis is not None:
+                letters[axis % len(letters)] = "S"
+            axes = "".join(letters)
+        return dataclasses.replace(
+            self,
+            axes=axes,
+            channel_axis=axis,
+            colour="" if axis is None else f"read as colour along axis {axis}",
+            ambiguous=False,
+            grey_alpha=False,
+            extra_samples=(),
+        )
 
     def unrenderable_samples(self) -> str | None:
         """Why the colour axis cannot be rendered as the file describes it, or None.

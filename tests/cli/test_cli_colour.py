@@ -114,3 +114,38 @@ def test_the_provenance_record_names_the_colour_mode_the_default_chose(tmp_path)
     assert read_provenance(tmp_path / "rgb_out.png")["arguments"]["colour"] == "luminance"
     assert "colour" not in read_provenance(tmp_path / "grey_out.png")["arguments"]
     assert main(["reproduce", str(tmp_path / "rgb_out.png")]) == EXIT_OK
+
+
+@pytest.mark.parametrize("suffix", [".zarr", ".tif"])
+def test_a_last_axis_read_as_colour_is_written_as_colour(tmp_path, suffix):
+    # a (Y, X, 3) store rendered with --channel-axis -1 was written to a TIFF as 40 grey
+    # pages of 48 x 3 pixels, as the file's (absent) colour metadata said
+    tifffile = pytest.importorskip("tifffile")
+    zarr = pytest.importorskip("zarr")
+    image = colour_image()
+    source = tmp_path / f"rgb{suffix}"
+    if suffix == ".zarr":
+        zarr.create_array(str(source), shape=image.shape, dtype=image.dtype)[...] = image
+    else:
+        tifffile.imwrite(source, image, photometric="minisblack", planarconfig="separate")
+    out = tmp_path / "out.tif"
+    assert render(source, "-o", out, "--channel-axis", "-1", *OPTIONS) == EXIT_OK
+    with tifffile.TiffFile(out) as tif:
+        assert (tif.series[0].axes, tif.pages[0].photometric.name) == ("YXS", "RGB")
+    expected = labyrinth(image, channel_axis=-1, **API_OPTIONS)
+    np.testing.assert_array_equal(read_image(out), expected)
+
+
+def test_planes_read_from_a_last_axis_of_three_are_not_written_as_a_colour_png(
+    tmp_path, capsys
+):
+    # the 40 planes of 48 x 3 pixels were written as an RGB picture
+    zarr = pytest.importorskip("zarr")
+    image = colour_image()
+    source = tmp_path / "rgb.zarr"
+    zarr.create_array(str(source), shape=image.shape, dtype=image.dtype)[...] = image
+    assert render(source, "-o", tmp_path / "planes.png", *OPTIONS) == EXIT_FAILED
+    (line,) = error_lines(capsys.readouterr().err)
+    assert "cannot store 40 planes of 48x3 pixels as PNG" in line and "--channel-axis -1" in line
+    assert not (tmp_path / "planes.png").exists()
+    assert render(source, "-o", tmp_path / "rgb.png", "--channel-axis", "-1", *OPTIONS) == EXIT_OK

@@ -470,7 +470,8 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
         _choose_auto_threshold(job, image, kwargs)
         steps = api.labyrinth_steps(image, mode, **kwargs)  # checks every argument first
         extra = 0 if mode == "single" else 1
-        output_metadata = metadata.for_output("Q" if extra else None, None)
+        rendered = metadata.with_channel_axis(channel_axis)  # as --channel-axis read it
+        output_metadata = rendered.for_output("Q" if extra else None, None)
         check_output(
             job.output,
             _result_shape(image.shape, mode, kwargs),
@@ -491,7 +492,7 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             overwrite=args.overwrite,
             plane_axes=plane_axes(image.ndim, channel_axis, extra),
             progress=functools.partial(progress, unit="plane") if chunked else None,
-            metadata=metadata.for_output("Q" if extra else None, record),
+            metadata=rendered.for_output("Q" if extra else None, record),
         )
     finally:
         if chunked:
