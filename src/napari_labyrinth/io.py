@@ -401,6 +401,15 @@ def _link_no_clobber(temporary: Path, path: Path) -> None:
 # -- lazy images: zarr stores and large TIFF files ------------------------------------------------
 
 
+def enclosing_zarr_store(path: str | os.PathLike) -> Path | None:
+    """The nearest existing zarr store (a directory holding zarr metadata) that holds
+    ``path`` below it, or None."""
+    for parent in Path(path).parents:
+        if _is_zarr_store(parent):
+            return parent
+    return None
+
+
 def zarr_root(path: str | os.PathLike) -> tuple[Path, str] | None:
     """``(store, component)`` of a path in a ``.zarr`` directory, or None.
 

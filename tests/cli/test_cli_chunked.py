@@ -510,3 +510,17 @@ def test_default_tone_limits_match_the_api(monkeypatch):
     scale = resolve_tone_scale(rgba[..., :3], None)
     lazy = da.from_array(rgba, chunks=(1, 8, 8, 4))
     assert lazy_images.default_tone_limits(lazy, channel_axis=-1) == (scale.low, scale.high)
+
+
+@pytest.mark.parametrize("output", ["experiment.zarr/labyrinth", "experiment.zarr/raw/x.tif"])
+def test_refuses_to_write_inside_a_zarr_store_that_holds_no_input(tmp_path, capsys, output):
+    # -o experiment.zarr/labyrinth made experiment.zarr/labyrinth/cells_labyrinth.zarr, a
+    # directory the group does not see as a member
+    image = textured()
+    source = store(tmp_path / "cells.zarr", image)
+    group = zarr.open_group(str(tmp_path / "experiment.zarr"), mode="w")
+    group.create_array("raw", shape=image.shape, dtype=image.dtype)[...] = image
+    before = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*"))
+    assert render(source, "-o", tmp_path / output, *OPTIONS) == 2
+    assert "inside the zarr store" in capsys.readouterr().err
+    assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == before

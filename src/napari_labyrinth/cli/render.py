@@ -353,7 +353,7 @@ def _check_lossless(output: Path, kind: str, lossy: bool) -> None:
 
 def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
     """Refuse colliding outputs always, and existing files without --overwrite."""
-    from ..io import zarr_root
+    from ..io import enclosing_zarr_store, zarr_root
 
     inputs = {}
     stores = {}  # the zarr stores that hold inputs: nothing is written inside one
@@ -383,6 +383,12 @@ def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
                     f"holds the input {holder} and whatever else is in it: name an output "
                     "outside it"
                 )
+        store = enclosing_zarr_store(job.output)
+        if store is not None:  # zarr sees no member there: a stray file in someone's store
+            raise UsageError(
+                f"the result of {job.input} would be written to {job.output}, inside the zarr "
+                f"store {store}: name an output outside it"
+            )
         if key in seen:
             raise UsageError(f"{seen[key]} and {job.input} would both be rendered to {job.output}")
         seen[key] = job.input
