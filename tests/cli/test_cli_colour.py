@@ -53,13 +53,43 @@ def test_rgb_png_renders_its_luminance_by_default_and_channels_on_request(tmp_pa
     np.testing.assert_array_equal(read_image(tmp_path / "stack.tif"), stack)
 
 
-def test_luminance_of_a_grey_tiff_fails_naming_colour(tmp_path, capsys):
+@pytest.mark.parametrize("colour", ["luminance", "channels"])
+def test_colour_of_a_grey_tiff_fails_naming_the_options(tmp_path, capsys, colour):
+    # named the API's colour='luminance' and channel_axis; --colour channels passed silently
     write_image(tmp_path / "grey.tif", colour_image()[..., 0])
-    argv = ["--colour", "luminance"]
+    argv = ["--colour", colour]
     assert render(tmp_path / "grey.tif", "-o", tmp_path / "out.tif", *argv) == EXIT_FAILED
     (line,) = error_lines(capsys.readouterr().err)
-    assert "grey.tif" in line and "colour='luminance'" in line and "channel_axis" in line
+    assert f"grey.tif: --colour {colour} applies to colour images" in line
+    assert "--channel-axis names one" in line and "colour=" not in line
     assert not (tmp_path / "out.tif").exists()
+
+
+def test_luminance_of_grey_and_alpha_fails_naming_the_options(tmp_path, capsys):
+    image = np.stack([colour_image()[..., 0], np.full((40, 48), 255, np.uint8)], axis=-1)
+    write_image(tmp_path / "la.png", image)
+    argv = ["--colour", "luminance"]
+    assert render(tmp_path / "la.png", "-o", tmp_path / "out.png", *argv) == EXIT_FAILED
+    (line,) = error_lines(capsys.readouterr().err)
+    assert "needs red, green and blue, and this image has 1 colour channel(s) and alpha" in line
+
+
+def test_one_bit_images_are_refused_saying_so(tmp_path, capsys):
+    from PIL import Image
+
+    Image.fromarray(colour_image()[..., 0] > 100).save(tmp_path / "mask.png")  # mode "1"
+    assert render(tmp_path / "mask.png", "-o", tmp_path / "out.png") == EXIT_FAILED
+    (line,) = error_lines(capsys.readouterr().err)
+    assert "mask.png: is a 1-bit (black and white) image" in line and "8-bit grey" in line
+
+
+def test_an_output_below_a_file_is_refused_naming_it(tmp_path, capsys):
+    # -o /dev/null/x.png said "File exists: /dev/null"
+    write_image(tmp_path / "in.png", colour_image())
+    (tmp_path / "notes.txt").write_text("mine")
+    assert render(tmp_path / "in.png", "-o", tmp_path / "notes.txt" / "x.png") == EXIT_USAGE
+    assert "notes.txt is not a directory" in capsys.readouterr().err
+    assert (tmp_path / "notes.txt").read_text() == "mine"
 
 
 def test_unknown_colour_is_a_usage_error(tmp_path, capsys):

@@ -383,6 +383,12 @@ def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
                     f"holds the input {holder} and whatever else is in it: name an output "
                     "outside it"
                 )
+        blocking = next((p for p in job.output.parents if os.path.lexists(p)), None)
+        if blocking is not None and not blocking.is_dir():  # it said "File exists: /dev/null"
+            raise UsageError(
+                f"the result of {job.input} would be written to {job.output}, but {blocking} "
+                "is not a directory"
+            )
         store = enclosing_zarr_store(job.output)
         if store is not None:  # zarr sees no member there: a stray file in someone's store
             raise UsageError(
@@ -436,6 +442,12 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     channel_axis = input_channel_axis(metadata, args.channel_axis)
     lazy = True if args.scheduler is not None else None
     image = open_image(job.input, lazy=lazy, channel_axis=channel_axis)
+    if image.dtype.kind == "b":  # a 1-bit PNG or TIFF: the API would name only its dtype
+        raise ImageFileError(
+            job.input,
+            "is a 1-bit (black and white) image: the labyrinth draws in grey levels; "
+            "save it as 8-bit grey",
+        )
     if metadata.ambiguous and args.channel_axis is None:
         *planes, rows, columns = image.shape
         _note(
@@ -455,6 +467,7 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
                 f"{job.input}: its fourth sample is an unspecified extra sample (not alpha): "
                 "kept as it is, not rendered, as alpha would be"
             )
+    _check_colour(job.input, options.get("colour"), image.shape, channel_axis, kwargs)
     mode = "stack" if args.stack else "sweep" if "parameter" in options else "single"
     chunked = is_lazy(image)
     try:
@@ -503,6 +516,30 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     finally:
         if chunked:
             release_files()
+
+
+def _check_colour(path: Path, colour, shape, channel_axis, kwargs: dict[str, Any]) -> None:
+    """Refuse ``--colour`` for an image it cannot apply to, in the command line's words
+    (the API's message names its own keywords, which the user never gave)."""
+    from ..io import ImageFileError
+
+    if colour is None:
+        return
+    if channel_axis is None:
+        raise ImageFileError(
+            path,
+            f"--colour {colour} applies to colour images, and this one has no colour axis "
+            "(the file declares none; --channel-axis names one)",
+        )
+    alpha = bool(kwargs.get("alpha")) or shape[channel_axis] == 4  # a 4th channel: alpha
+    colours = shape[channel_axis] - alpha
+    if colour == "luminance" and colours != 3:
+        what = f"{colours} colour channel(s) and alpha" if alpha else f"{colours} channel(s)"
+        raise ImageFileError(
+            path,
+            f"--colour luminance needs red, green and blue, and this image has {what}; "
+            "--colour channels renders each channel on its own",
+        )
 
 
 def _result_shape(shape: tuple[int, ...], mode: str, kwargs: dict[str, Any]) -> tuple[int, ...]:
