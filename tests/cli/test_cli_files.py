@@ -192,6 +192,30 @@ def test_reproduce_finds_a_changed_output_and_a_changed_input(tmp_path, capsys):
     assert "not the file that was rendered" in capsys.readouterr().err
 
 
+
+def test_reproduce_in_the_outputs_directory_finds_the_input_named_from_above(
+    tmp_path, capsys, monkeypatch
+):
+    # render raw/cells.png -o results/, then reproduce in results: "raw/cells.png is not at
+    # raw/cells.png, cells.png; give --input"
+    (tmp_path / "raw").mkdir()
+    write_image(tmp_path / "raw" / "cells.png", noise((16, 16)))
+    monkeypatch.chdir(tmp_path)
+    assert render("raw/cells.png", "-o", "results/", *OPTIONS) == EXIT_OK
+    monkeypatch.chdir(tmp_path / "results")
+    capsys.readouterr()
+    assert main(["reproduce", "cells_labyrinth.png"]) == EXIT_OK
+    assert "identical bit for bit" in capsys.readouterr().out
+
+
+def test_reproduce_of_a_lossy_output_says_why_it_differs(tmp_path, capsys):
+    write_image(tmp_path / "in.png", colour_image())
+    out = tmp_path / "out.jpg"
+    assert render(tmp_path / "in.png", "-o", out, "--lossy", *OPTIONS) == EXIT_OK
+    capsys.readouterr()
+    assert main(["reproduce", str(out)]) == EXIT_FAILED
+    assert "DIFFERS" in (said := capsys.readouterr().out) and "(JPEG is lossy" in said
+
 def test_reproduce_without_a_record_or_input_says_why(tmp_path, capsys):
     write_image(tmp_path / "plain.tif", noise((8, 8)))
     assert main(["reproduce", str(tmp_path / "plain.tif")]) == EXIT_FAILED

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +15,7 @@ def reproduce_command(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .. import __version__, api
-    from ..io import open_image, read_image, read_provenance
+    from ..io import LOSSY_FORMATS, image_format, open_image, read_image, read_provenance
     from ..lazy import computing, is_lazy
     from ..provenance import file_checksum, reproduce_call
 
@@ -53,14 +54,24 @@ def reproduce_command(args: argparse.Namespace) -> int:
             f"shape {tuple(written.shape)}, {written.dtype}, {written.size} values"
         )
         return EXIT_OK
+    lossy = ""
+    if image_format(output) in LOSSY_FORMATS:
+        lossy = f" ({image_format(output)} is lossy: its values are never a rendering's own)"
     print_output(
-        f"{PROG}: {output}: DIFFERS from a new rendering: {what}; {difference(written, again)}"
+        f"{PROG}: {output}: DIFFERS from a new rendering: {what}; "
+        f"{difference(written, again)}{lossy}"
     )
     return EXIT_FAILED
 
 
 def find_input(output: Path, source: dict[str, Any], given: str | None) -> Path:
-    """The input to render: ``--input``, else the recorded name, as given or beside the output."""
+    """The input to render: ``--input``, else the recorded name: as given, beside the output,
+    or below a directory that holds the output.
+
+    The name was recorded relative to where ``render`` ran, often a directory above the
+    output's (``render raw/cells.png -o results/``, then ``reproduce`` in ``results``);
+    the input's checksum, checked next, tells a file of the same name from it.
+    """
     if given is not None:
         path = Path(given)
         if not path.exists():
@@ -68,14 +79,17 @@ def find_input(output: Path, source: dict[str, Any], given: str | None) -> Path:
         return path
     name = Path(source["name"])
     candidates = [name, output.parent / name, output.parent / name.name]
+    if not name.is_absolute():
+        candidates += [folder / name for folder in Path(os.path.abspath(output)).parents[1:]]
     for path in candidates:
         try:
             if path.exists():
                 return path
         except OSError:  # a name the file system cannot hold (too long): not there
             continue
-    tried = ", ".join(dict.fromkeys(str(path) for path in candidates))
-    raise Failed(f"{output}: the recorded input {name} is not at {tried}; give --input")
+    tried = ", ".join(dict.fromkeys(str(path) for path in candidates[:3]))
+    above = " nor below a directory above the output's;" if len(candidates) > 3 else ";"
+    raise Failed(f"{output}: the recorded input {name} is not at {tried},{above} give --input")
 
 
 def identical(a, b) -> bool:
