@@ -216,6 +216,17 @@ def test_reproduce_of_a_lossy_output_says_why_it_differs(tmp_path, capsys):
     assert main(["reproduce", str(out)]) == EXIT_FAILED
     assert "DIFFERS" in (said := capsys.readouterr().out) and "(JPEG is lossy" in said
 
+
+def test_reproduce_names_the_values_of_a_sweep(tmp_path, capsys):
+    # a sweep of seeds 1, 2, 3 was said to be of "seed 0"
+    write_image(tmp_path / "in.tif", noise((16, 16)))
+    for spec, said in (("seed=1,2,3", "seeds 1, 2, 3;"), ("passes=1,2", "seed 0, passes 1, 2;")):
+        out = tmp_path / f"{spec[:4]}.tif"
+        assert render(tmp_path / "in.tif", "-o", out, "--sweep", spec) == EXIT_OK
+        capsys.readouterr()
+        assert main(["reproduce", str(out)]) == EXIT_OK
+        assert said in capsys.readouterr().out
+
 def test_reproduce_without_a_record_or_input_says_why(tmp_path, capsys):
     write_image(tmp_path / "plain.tif", noise((8, 8)))
     assert main(["reproduce", str(tmp_path / "plain.tif")]) == EXIT_FAILED

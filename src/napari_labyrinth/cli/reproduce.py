@@ -46,8 +46,15 @@ def reproduce_command(args: argparse.Namespace) -> int:
         raise Failed(f"{output}: {describe(exc, output)}") from None
     again = np.asarray(again)
     versions = f"recorded by {record['version']}, rendered by {__version__}"
-    what = f"{mode} of {path} ({record['function']}, preset {record['preset']}, seed "
-    what += f"{record['seed']}; {versions})"
+    sweep = record.get("sweep") or {}
+    swept = sweep.get("parameter")
+    seed = f"seed {record['seed']}"
+    if swept == "seed":  # the seed recorded is the default the sweep replaced
+        seed = "seeds " + ", ".join(map(str, sweep.get("values", ())))
+    elif swept is not None:
+        seed += f", {swept} " + ", ".join(map(str, sweep.get("values", ())))
+    what = f"{mode} of {path} ({record['function']}, preset {record['preset']}, {seed}; "
+    what += f"{versions})"
     if identical(written, again):
         print_output(
             f"{output}: identical bit for bit to a new rendering: {what}; "
