@@ -336,3 +336,35 @@ def test_channel_names_are_kept_only_when_they_name_every_channel(tmp_path):
     assert read_metadata(tmp_path / "partly.ome.tif").channel_names == ()
     tifffile.imwrite(tmp_path / "plain.tif", np.stack([CAM, CAM]))
     assert read_metadata(tmp_path / "plain.tif").channel_names == ()
+
+
+# -- time increment -------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "output,variant",
+    [("out.ome.tif", []), ("out.zarr", []), ("stack.tif", ["--stack"]),
+     ("stack.zarr", ["--stack"])],
+)  # fmt: skip
+def test_the_time_between_frames_is_kept(tmp_path, output, variant):
+    # an OME-TIFF's 30 s between frames came out as no interval (OME-TIFF) or 1 (OME-Zarr)
+    pytest.importorskip("zarr")
+    source = tmp_path / "movie.ome.tif"
+    frames = np.stack([CAM, CAM.T, CAM[::-1]])
+    metadata = {"axes": "TYX", "TimeIncrement": 30.0, "TimeIncrementUnit": "s"}
+    tifffile.imwrite(source, frames, ome=True, metadata=metadata)
+    assert read_metadata(source).time_increment == (30.0, "second")
+    assert render(source, "-o", tmp_path / output, *variant) == EXIT_OK
+    kept = read_metadata(tmp_path / output)
+    assert kept.time_increment == (30.0, "second") and kept.axes.endswith("TYX")
+    back = tmp_path / "back.ome.tif"
+    assert render(tmp_path / output, "-o", back) == EXIT_OK
+    assert read_metadata(back).time_increment == (30.0, "second")
+
+
+def test_no_time_increment_is_invented(tmp_path):
+    source = tmp_path / "movie.ome.tif"
+    tifffile.imwrite(source, np.stack([CAM, CAM.T]), ome=True, metadata={"axes": "TYX"})
+    assert read_metadata(source).time_increment is None
+    assert render(source, "-o", tmp_path / "out.zarr") == EXIT_OK
+    assert read_metadata(tmp_path / "out.zarr").time_increment is None

@@ -1062,6 +1062,17 @@ _UNIT_SYMBOLS = {
     "meter": "m",
 }
 
+#: OME-Zarr's names of time units -> OME-TIFF's symbols (``TimeIncrementUnit``).
+_TIME_UNIT_SYMBOLS = {
+    "second": "s",
+    "millisecond": "ms",
+    "microsecond": "µs",
+    "nanosecond": "ns",
+    "minute": "min",
+    "hour": "h",
+    "day": "d",
+}
+
 #: PIL image modes (PNG, JPEG, BMP) read as colour, with what the mode means.
 _PIL_COLOUR_MODES = {
     "RGB": "RGB",
@@ -1179,6 +1190,12 @@ class ImageMetadata:
         tag, a PNG's iCCP chunk, a JPEG's APP2 segments): the meaning of its
         values, which the rendering keeps. A TIFF, PNG or JPEG output embeds
         it again; a BMP or zarr output holds none.
+    time_increment : tuple or None
+        ``(interval, unit)``: the time between two planes along the ``T``
+        axis, the unit an OME-Zarr name (``"second"``) or the file's own
+        word: an OME-TIFF's ``TimeIncrement``, an OME-Zarr image's scale of
+        its time axis; None when the file states none. A TIFF or zarr
+        output states it again.
     channel_names : tuple of str
         The names of the channels (``"DAPI"``, ``"GFP"``), one for each
         plane along the ``C`` axis, or a single one for an image without
@@ -1201,6 +1218,7 @@ class ImageMetadata:
     imagej: bool = False
     icc_profile: bytes | None = dataclasses.field(default=None, repr=False)
     channel_names: tuple[str, ...] = ()
+    time_increment: tuple[float, str | None] | None = None
 
     def for_output(self, extra_axis: str | None, provenance: dict | None) -> ImageMetadata:
         """The metadata of a rendering of this image.
@@ -1377,6 +1395,7 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
                 channel_axis -= len(axes)  # as a PNG's -1: the command line keeps its alpha
         record, sizes, ome = None, {}, bool(tif.is_ome and tif.ome_metadata)
         channel_names: tuple[str, ...] = ()
+        time_increment = None
         imagej = None if ome else tif.imagej_metadata
         if ome:
             image = _first(tifffile.xml2dict(tif.ome_metadata)["OME"].get("Image"))
@@ -1390,6 +1409,9 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
                 channel.get("Name") if isinstance(channel, dict) else None
                 for channel in _all(pixels.get("Channel"))
             )
+            if pixels.get("TimeIncrement") is not None:
+                unit = _time_unit_name(pixels.get("TimeIncrementUnit", "s"))
+                time_increment = (float(pixels["TimeIncrement"]), unit)
             annotations = tifffile.xml2dict(tif.ome_metadata)["OME"].get(
                 "StructuredAnnotations", {}
             )
@@ -1408,6 +1430,7 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
                 sizes[letter] = (float(size), unit)
             names = description.get("channel_names")
             channel_names = _names(names if isinstance(names, list) else ())
+            time_increment = _time_pair(description.get("time_increment"))
     tifffile_default = not ome and imagej is None and set(axes) <= set("QSYX")
     return ImageMetadata(
         axes=None if tifffile_default else axes,
@@ -1425,6 +1448,7 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
         icc_profile=icc_profile,
         imagej=imagej is not None,
         channel_names=channel_names,
+        time_increment=time_increment,
     )
 
 
@@ -1702,7 +1726,7 @@ def _zarr_metadata(path: Path) -> ImageMetadata:
     attributes = dict(node.attrs)
     record = attributes.get(KEY, dict(array.attrs).get(KEY))
     multiscales = attributes.get("multiscales") or attributes.get("ome", {}).get("multiscales")
-    axes, sizes, ome, channel_names = None, {}, False, ()
+    axes, sizes, ome, channel_names, time_increment = None, {}, False, (), None
     if isinstance(node, zarr.Group) and multiscales:
         ome = True
         omero = attributes.get("omero") or attributes.get("ome", {}).get("omero") or {}
@@ -1723,6 +1747,8 @@ def _zarr_metadata(path: Path) -> ImageMetadata:
             for letter, unit, factor in zip(axes, units, factors or (), strict=False):
                 if letter in SPATIAL_AXES:
                     sizes[letter] = (float(factor), unit)
+                elif letter == "T" and (factor != 1 or unit is not None):
+                    time_increment = (float(factor), unit)
         else:
             ome = False
     elif isinstance(attributes.get("axes"), str) and len(attributes["axes"]) == array.ndim:
@@ -1730,6 +1756,7 @@ def _zarr_metadata(path: Path) -> ImageMetadata:
         sizes = {k: (float(v[0]), v[1]) for k, v in attributes.get("pixel_sizes", {}).items()}
         names = attributes.get("channel_names")
         channel_names = _names(names if isinstance(names, list) else ())
+        time_increment = _time_pair(attributes.get("time_increment"))
     return ImageMetadata(
         axes=axes,
         pixel_sizes=sizes,
@@ -1737,7 +1764,20 @@ def _zarr_metadata(path: Path) -> ImageMetadata:
         provenance=_record(record, path),
         ambiguous=_ambiguous(array.shape, None, axes),
         channel_names=channel_names,
+        time_increment=time_increment,
     )
+
+
+def _time_pair(value) -> tuple[float, str | None] | None:
+    """A time increment as this package writes it beside the axes (``[interval, unit]``)."""
+    if isinstance(value, list) and len(value) == 2 and isinstance(value[0], (int, float)):
+        return float(value[0]), value[1] if isinstance(value[1], str) else None
+    return None
+
+
+def _time_unit_name(symbol: str | None) -> str | None:
+    names = {symbol: name for name, symbol in _TIME_UNIT_SYMBOLS.items()}
+    return names.get(symbol, symbol)
 
 
 def _zarr_scale(node: dict) -> list[float] | None:
@@ -1817,6 +1857,11 @@ def _tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | No
                 ome[f"PhysicalSize{letter}Unit"] = _unit_symbol(unit)
         if names := _named_channels(metadata, shape):
             ome["Channel"] = {"Name": list(names)}
+        if metadata.time_increment is not None and "T" in metadata.axes:
+            interval, unit = metadata.time_increment
+            ome["TimeIncrement"] = interval
+            if unit is not None:
+                ome["TimeIncrementUnit"] = _TIME_UNIT_SYMBOLS.get(unit, unit)
         if record is not None:
             ome["CommentAnnotation"] = {"Namespace": KEY, "Value": to_json(record)}
         options.update(ome=True, metadata=ome)
@@ -1832,6 +1877,8 @@ def _tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | No
                 description["pixel_sizes"] = {k: list(v) for k, v in metadata.pixel_sizes.items()}
             if names := _named_channels(metadata, shape):
                 description["channel_names"] = list(names)
+            if metadata.time_increment is not None and "T" in metadata.axes:
+                description["time_increment"] = list(metadata.time_increment)
         options.update(ome=False, metadata=description)
     return options
 
@@ -1958,6 +2005,8 @@ def _zarr_attributes(shape: Sequence[int], metadata: ImageMetadata | None) -> tu
             attributes["pixel_sizes"] = {k: list(v) for k, v in metadata.pixel_sizes.items()}
             if names := _named_channels(metadata, shape):
                 attributes["channel_names"] = list(names)
+            if metadata.time_increment is not None and "T" in axes:
+                attributes["time_increment"] = list(metadata.time_increment)
         return attributes, ""
     entries, scale = [], []
     for letter in axes:
@@ -1965,6 +2014,8 @@ def _zarr_attributes(shape: Sequence[int], metadata: ImageMetadata | None) -> tu
         if letter in _OME_ZARR_TYPES:
             entry["type"] = _OME_ZARR_TYPES[letter]
         size, unit = metadata.pixel_sizes.get(letter, (1.0, None))
+        if letter == "T" and metadata.time_increment is not None:
+            size, unit = metadata.time_increment
         if unit is not None:
             entry["unit"] = unit
         entries.append(entry)
