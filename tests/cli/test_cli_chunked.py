@@ -524,3 +524,17 @@ def test_refuses_to_write_inside_a_zarr_store_that_holds_no_input(tmp_path, caps
     assert render(source, "-o", tmp_path / output, *OPTIONS) == 2
     assert "inside the zarr store" in capsys.readouterr().err
     assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == before
+
+
+def test_an_output_that_cannot_take_a_lazy_rendering_is_refused_before_its_limits_pass(
+    tmp_path, capsys
+):
+    # the pass over the data for the default tone limits ran first, then the PNG refused
+    image = np.stack([textured()[0]] * 3, axis=-1)  # uint16 colour: PNG holds uint16 grey only
+    source = tmp_path / "rgb.zarr"
+    zarr.create_array(str(source), shape=image.shape, dtype=image.dtype)[...] = image
+    argv = [source, "-o", tmp_path / "out.png", "--channel-axis", "-1", *OPTIONS]
+    assert render(*argv) == 1
+    err = capsys.readouterr().err
+    assert "cannot store uint16 data of shape (64, 64, 3) as PNG" in err
+    assert "finding the default tone limits" not in err

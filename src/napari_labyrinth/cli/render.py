@@ -469,8 +469,17 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             )
     _check_colour(job.input, options.get("colour"), image.shape, channel_axis, kwargs)
     mode = "stack" if args.stack else "sweep" if "parameter" in options else "single"
+    extra = 0 if mode == "single" else 1
+    rendered = metadata.with_channel_axis(channel_axis)  # as --channel-axis read it
     chunked = is_lazy(image)
     try:
+        check_output(
+            job.output,
+            _result_shape(image.shape, mode, kwargs),
+            image.dtype,
+            overwrite=args.overwrite,
+            metadata=rendered.for_output("Q" if extra else None, None),
+        )  # before the rendering, and a lazy input's pass for its limits: refused now
         if chunked and "tone_limits" not in options and image.dtype.name != "uint8":
             # a lazy rendering is only a graph: building one checks the input (dtype,
             # shape, channel axis) before a scan of the whole data; V=auto is chosen
@@ -488,16 +497,6 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             _note(f"{job.input}: tone limits {low!r} {high!r}")
         _choose_auto_threshold(job, image, kwargs)
         steps = api.labyrinth_steps(image, mode, **kwargs)  # checks every argument first
-        extra = 0 if mode == "single" else 1
-        rendered = metadata.with_channel_axis(channel_axis)  # as --channel-axis read it
-        output_metadata = rendered.for_output("Q" if extra else None, None)
-        check_output(
-            job.output,
-            _result_shape(image.shape, mode, kwargs),
-            image.dtype,
-            overwrite=args.overwrite,
-            metadata=output_metadata,
-        )  # before the rendering: an output that cannot take it refuses it now
         for event in steps:
             if isinstance(event, api.Result):
                 result, limits = event.image, event.tone_limits
