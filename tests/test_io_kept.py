@@ -368,3 +368,16 @@ def test_no_time_increment_is_invented(tmp_path):
     assert read_metadata(source).time_increment is None
     assert render(source, "-o", tmp_path / "out.zarr") == EXIT_OK
     assert read_metadata(tmp_path / "out.zarr").time_increment is None
+
+
+def test_an_ome_output_that_ome_cannot_hold_is_said(tmp_path, capsys):
+    # a stack of a CYX OME-TIFF (QCYX) went to a plain zarr array without a word
+    pytest.importorskip("zarr")
+    source = tmp_path / "in.ome.tif"
+    _named_ome_tiff(source)
+    assert render(source, "-o", tmp_path / "one.zarr") == EXIT_OK
+    assert "cannot hold the axes" not in capsys.readouterr().err
+    assert render(source, "-o", tmp_path / "stack.zarr", "--stack") == EXIT_OK
+    err = capsys.readouterr().err
+    assert "stack.zarr: OME-Zarr (2 to 5 axes" in err and "cannot hold the axes QCYX" in err
+    assert read_metadata(tmp_path / "stack.zarr").axes == "QCYX"  # kept, in its own words

@@ -1965,6 +1965,31 @@ def _tiff_samples(shape: Sequence[int], metadata: ImageMetadata) -> dict:
     return options
 
 
+def ome_lost(path: str | os.PathLike, shape: Sequence[int], metadata: ImageMetadata) -> str | None:
+    """Why an output at ``path`` of ``shape`` cannot be OME as its input was, or None.
+
+    A TIFF or zarr output of an OME input is OME where OME can hold its axes;
+    otherwise it keeps the axes, pixel sizes, channel names and time
+    increment in this package's own description (which it reads back, and
+    other readers do not).
+    """
+    if not (metadata.ome and metadata.axes):
+        return None
+    kind = image_format(path)
+    if kind == "TIFF" and not _ome_tiff_ok(metadata, shape):
+        holds = "OME-TIFF"
+    elif kind == "ZARR" and not (
+        len(metadata.axes) == len(shape) and _ome_zarr_ok(metadata.axes)
+    ):
+        holds = "OME-Zarr (2 to 5 axes: [time] [channel or another] then 2 or 3 of space)"
+    else:
+        return None
+    return (
+        f"{holds} cannot hold the axes {metadata.axes}: written with them in this package's "
+        "own description instead (read back by napari-labyrinth, not by other OME readers)"
+    )
+
+
 def _ome_tiff_ok(metadata: ImageMetadata, shape: Sequence[int]) -> bool:
     """Whether tifffile can write these axes as OME-XML (else a JSON description)."""
     from tifffile import OmeXml, OmeXmlError

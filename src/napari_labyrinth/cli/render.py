@@ -431,6 +431,7 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     from ..io import (
         ImageFileError,
         check_output,
+        ome_lost,
         open_image,
         read_metadata,
         release_files,
@@ -478,8 +479,11 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
             _result_shape(image.shape, mode, kwargs),
             image.dtype,
             overwrite=args.overwrite,
-            metadata=rendered.for_output("Q" if extra else None, None),
+            metadata=(written := rendered.for_output("Q" if extra else None, None)),
         )  # before the rendering, and a lazy input's pass for its limits: refused now
+        lost = ome_lost(job.output, _result_shape(image.shape, mode, kwargs), written)
+        if lost is not None:
+            _note(f"{job.output}: {lost}")
         if chunked and "tone_limits" not in options and image.dtype.name != "uint8":
             # a lazy rendering is only a graph: building one checks the input (dtype,
             # shape, channel axis) before a scan of the whole data; V=auto is chosen
