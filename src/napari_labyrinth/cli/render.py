@@ -474,14 +474,12 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     rendered = metadata.with_channel_axis(channel_axis)  # as --channel-axis read it
     chunked = is_lazy(image)
     try:
-        check_output(
-            job.output,
-            _result_shape(image.shape, mode, kwargs),
-            image.dtype,
-            overwrite=args.overwrite,
-            metadata=(written := rendered.for_output("Q" if extra else None, None)),
-        )  # before the rendering, and a lazy input's pass for its limits: refused now
-        lost = ome_lost(job.output, _result_shape(image.shape, mode, kwargs), written)
+        shape, written = _result_shape(image.shape, mode, kwargs), rendered.for_output(
+            "Q" if extra else None, None
+        )
+        # before the rendering, and a lazy input's pass for its limits: refused now
+        check_output(job.output, shape, image.dtype, overwrite=args.overwrite, metadata=written)
+        lost = ome_lost(job.output, shape, written)
         if lost is not None:
             _note(f"{job.output}: {lost}")
         if chunked and "tone_limits" not in options and image.dtype.name != "uint8":
