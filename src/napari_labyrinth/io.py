@@ -1398,7 +1398,8 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
         time_increment = None
         imagej = None if ome else tif.imagej_metadata
         if ome:
-            image = _first(tifffile.xml2dict(tif.ome_metadata)["OME"].get("Image"))
+            ome_xml = tifffile.xml2dict(tif.ome_metadata)["OME"]
+            image = _first(ome_xml.get("Image"))
             pixels = (image or {}).get("Pixels", {})
             for letter in SPATIAL_AXES:
                 size = pixels.get(f"PhysicalSize{letter}")
@@ -1412,9 +1413,7 @@ def _tiff_metadata(path: Path) -> ImageMetadata:
             if pixels.get("TimeIncrement") is not None:
                 unit = _time_unit_name(pixels.get("TimeIncrementUnit", "s"))
                 time_increment = (float(pixels["TimeIncrement"]), unit)
-            annotations = tifffile.xml2dict(tif.ome_metadata)["OME"].get(
-                "StructuredAnnotations", {}
-            )
+            annotations = ome_xml.get("StructuredAnnotations", {})
             for comment in _all(annotations.get("CommentAnnotation")):
                 if isinstance(comment, dict) and comment.get("Namespace") == KEY:
                     record = _record(str(comment.get("Value")), path)
