@@ -241,9 +241,9 @@ def write_image(
         raise ImageFileError(path, "is a directory")
     if not overwrite and os.path.lexists(path):
         raise FileExistsError(f"{path} already exists (use overwrite to replace it)")
-    directory = path.parent
-    temporary, handle = _create_temporary(directory, path.name)
-    with _published(temporary, path, overwrite=overwrite):
+    made: list[Path] = []
+    with _published(made, path, overwrite=overwrite):
+        _, handle = _create_temporary(path.parent, path.name, made)
         with handle:
             _write(handle, kind, path.suffix.lower(), array, metadata)
             handle.flush()
@@ -252,21 +252,25 @@ def write_image(
 
 
 @contextlib.contextmanager
-def _published(temporary: Path, path: Path, *, overwrite: bool):
-    """Move ``temporary`` to ``path`` once the block has written it; remove it on failure.
+def _published(made: list[Path], path: Path, *, overwrite: bool):
+    """Move the temporary file the block makes (:func:`_create_temporary`, into ``made``) to
+    ``path`` once the block has written it; remove it on failure.
 
-    ``os.replace`` with ``overwrite``; otherwise a hard link that refuses to
-    clobber a file created in the meantime.
+    The temporary is made inside the block, so that an interruption at any
+    moment after it exists (Ctrl-C, SIGTERM) removes it. ``os.replace``
+    with ``overwrite``; otherwise a hard link that refuses to clobber a file
+    created in the meantime.
     """
     try:
         yield
         if overwrite:
-            os.replace(temporary, path)
+            os.replace(made[-1], path)
         else:
-            _link_no_clobber(temporary, path)
+            _link_no_clobber(made[-1], path)
     except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(temporary)
+        for temporary in made:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(temporary)
         raise
 
 
@@ -336,15 +340,22 @@ def _check_storable(
         )
 
 
-def _create_temporary(directory: Path, name: str):
-    """A new hidden file beside the destination, opened for binary writing."""
+def _create_temporary(directory: Path, name: str, made: list[Path]):
+    """A new hidden file beside the destination, opened for binary writing.
+
+    Its path is put in ``made`` before it is created: an interruption handled
+    as the file is made (Python runs signal handlers as a call returns)
+    leaves the caller a path to remove.
+    """
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
     remove_stale_temporaries(directory, name)
     while True:
         temporary = directory / temporary_name(name)
+        made.append(temporary)
         try:
             fd = os.open(temporary, flags, 0o666)  # the umask applies, unlike mkstemp
         except FileExistsError:
+            made.pop()  # not made here
             continue
         os.close(fd)
         # Opened again by name: writers such as tifffile want a named file.
@@ -800,9 +811,10 @@ def _write_tiff_lazily(path: Path, array, *, overwrite, plane_axes, progress, me
 
     _check_writable(path, "TIFF", array, overwrite)
     array = _native(array)
-    temporary, handle = _create_temporary(path.parent, path.name)
-    handle.close()
-    with _published(temporary, path, overwrite=overwrite):
+    made: list[Path] = []
+    with _published(made, path, overwrite=overwrite):
+        temporary, handle = _create_temporary(path.parent, path.name, made)
+        handle.close()
         offset, _ = tifffile.imwrite(
             temporary,
             shape=array.shape,
@@ -879,8 +891,9 @@ def _write_zarr(path: Path, array, *, overwrite, plane_axes, progress, metadata)
     axes = {axis % array.ndim for axis in plane_axes}
     chunks = tuple(size if axis in axes else 1 for axis, size in enumerate(array.shape))
     array = _native(array)
-    temporary = _create_temporary_directory(path.parent, path.name)
+    made: list[Path] = []
     try:
+        temporary = _create_temporary_directory(path.parent, path.name, made)
         lazy = is_lazy(array)
         store = _waited_for(
             _create_zarr_array,
@@ -900,7 +913,8 @@ def _write_zarr(path: Path, array, *, overwrite, plane_axes, progress, metadata)
             progress(total, total)
         _publish_directory(temporary, path, overwrite=overwrite)
     except BaseException:
-        shutil.rmtree(temporary, ignore_errors=True)
+        for temporary in made:
+            shutil.rmtree(temporary, ignore_errors=True)
         raise
     finally:
         _cached_zarr_for_writing.cache_clear()
@@ -975,14 +989,17 @@ def _is_zarr_store(path: Path) -> bool:
     )
 
 
-def _create_temporary_directory(directory: Path, name: str) -> Path:
-    """A new hidden directory beside the destination."""
+def _create_temporary_directory(directory: Path, name: str, made: list[Path]) -> Path:
+    """A new hidden directory beside the destination, its path put in ``made`` before it is
+    created (see :func:`_create_temporary`)."""
     remove_stale_temporaries(directory, name)
     while True:
         temporary = directory / temporary_name(name)
+        made.append(temporary)
         try:
             os.mkdir(temporary)
         except FileExistsError:
+            made.pop()  # not made here
             continue
         return temporary
 

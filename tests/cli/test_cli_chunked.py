@@ -538,3 +538,34 @@ def test_an_output_that_cannot_take_a_lazy_rendering_is_refused_before_its_limit
     err = capsys.readouterr().err
     assert "cannot store uint16 data of shape (64, 64, 3) as PNG" in err
     assert "finding the default tone limits" not in err
+
+
+@pytest.mark.parametrize("output", ["out.zarr", "out.tif", "out.png"])
+@pytest.mark.parametrize("lazy", [True, False], ids=["lazy", "in memory"])
+def test_an_interruption_as_the_temporary_is_made_leaves_none(
+    tmp_path, monkeypatch, output, lazy
+):
+    # Python runs a signal's handler as a call returns: SIGTERM handled as the temporary's
+    # mkdir (or open) returned raised before the code that removes it was entered
+    if output == "out.png" and lazy:
+        pytest.skip("a PNG is written from memory")
+    real_mkdir, real_open = os.mkdir, os.open
+    signalled = []
+
+    def interrupted(real):
+        def call(path, *args, **kwargs):
+            result = real(path, *args, **kwargs)
+            if not signalled and os.path.basename(str(path)).startswith(f".{output}."):
+                signalled.append(path)
+                raise KeyboardInterrupt  # as the handler of the signal does
+            return result
+
+        return call
+
+    monkeypatch.setattr(os, "mkdir", interrupted(real_mkdir))
+    monkeypatch.setattr(os, "open", interrupted(real_open))
+    image = textured()[:1, :16, :16].astype(np.uint8)[0]
+    array = da.from_array(image) if lazy else image
+    with pytest.raises(KeyboardInterrupt):
+        file_io.write_array(tmp_path / output, array)
+    assert signalled and os.listdir(tmp_path) == []
