@@ -30,7 +30,8 @@ Precision, chosen by what each result feeds:
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from .core._jit import cached_njit
 
 #: Lattice directions as families of lags: family f holds the lags k * u_f, k = 1, 2, 4.
 FAMILIES = ((0, 1), (1, 0), (1, 1), (1, -1))
@@ -67,7 +68,7 @@ def gaussian_weights(sigma: float, truncate: float = 4.0) -> np.ndarray:
     return np.ascontiguousarray(phi[radius:])
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _sum(values):
     """Sum of a line: eight interleaved partial sums (independent chains), then those."""
     n = values.shape[0]
@@ -87,7 +88,7 @@ def _sum(values):
     return ((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7))
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _finite_range(values):
     """Smallest and largest finite value of a line (inf, -inf if none) and the count of others."""
     low = np.inf
@@ -103,7 +104,7 @@ def _finite_range(values):
     return low, high, others
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _any_above(values, threshold):
     for x in range(values.shape[0]):
         if values[x] > threshold:
@@ -111,7 +112,7 @@ def _any_above(values, threshold):
     return False
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _reflect(i, n):
     """Index of virtual position ``i`` of a line of ``n`` under scipy's ``reflect``."""
     period = 2 * n
@@ -121,13 +122,13 @@ def _reflect(i, n):
     return i
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _scale(out, centre, w0):
     for i in range(out.shape[0]):
         out[i] = centre[i] * w0
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _add_taps4(out, a1, b1, w1, a2, b2, w2, a3, b3, w3, a4, b4, w4):
     """``out += (a1 + b1) w1``, then ``+= (a2 + b2) w2`` ... in this order, elementwise."""
     for i in range(out.shape[0]):
@@ -139,13 +140,13 @@ def _add_taps4(out, a1, b1, w1, a2, b2, w2, a3, b3, w3, a4, b4, w4):
         out[i] = value
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _add_tap(out, a, b, w):
     for i in range(out.shape[0]):
         out[i] += (a[i] + b[i]) * w
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _gauss_rows(rows, lower, upper, centre, weights, out):
     """``out = rows[centre] w0``, then ``+= (rows[lower[j]] + rows[upper[j]]) w[j]``, j = r .. 1.
 
@@ -177,7 +178,7 @@ def _gauss_rows(rows, lower, upper, centre, weights, out):
         j -= 1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _gauss_line(ext, radius, weights, out):
     """``out[i]`` = Gaussian of the extended line ``ext`` at ``ext[radius + i]``, scipy's order."""
     n = out.shape[0]
@@ -207,7 +208,7 @@ def _gauss_line(ext, radius, weights, out):
         j -= 1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _extend(line, radius, ext):
     """``ext`` = ``line`` with ``radius`` values on each side under scipy's ``reflect``."""
     n = line.shape[0]
@@ -218,7 +219,7 @@ def _extend(line, radius, ext):
         ext[radius + n + i] = line[_reflect(n + i, n)]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
     """``fine = plane - G * plane`` on rows ``[y0, y1)``, and its float32 copy ``fine32``
     (unless ``fine32`` is a single row: then it is not written).
@@ -264,7 +265,7 @@ def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
         sums[y, 3] = max(_finite_range(smooth)[1], 0.0)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _fine_row(plane, weights, y, lower, upper, column, ext, smooth, out):
     """Row y of ``h = plane - G * plane`` into ``out``, as :func:`fine_scale_band` computes it."""
     height, width = plane.shape
@@ -280,7 +281,7 @@ def _fine_row(plane, weights, y, lower, upper, column, ext, smooth, out):
         out[x] = row[x] - smooth[x]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def energy_band(plane, fine_weights, weights, energy, edges, sums, y0, y1):
     """The energy ``G * h**2`` of rows ``[y0, y1)`` without keeping ``h``, and the Sobel
     magnitude ``edges`` (:func:`sobel_band`): an original's maps in one pass.
@@ -336,7 +337,7 @@ def energy_band(plane, fine_weights, weights, energy, edges, sums, y0, y1):
         sums[y, 4] = _sum(energy[y])
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _source_row(fine, plane, mode, dy, dx, half, row, s0, s1, out):
     """Row ``row``, columns ``[s0, s1)``, of the map that the wall pass smooths.
 
@@ -379,7 +380,7 @@ def _source_row(fine, plane, mode, dy, dx, half, row, s0, s1, out):
         )
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _smooth_block(
     fine, plane, mode, dy, dx, half, weights, b0, b1, x0, x1, ring, column, ext, result, needed
 ):
@@ -428,7 +429,7 @@ def _smooth_block(
             _gauss_line(ext[: tile + 2 * radius], radius, weights, out)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def local_mean_band(plane, weights, where, flags, y0, y1):
     """``flags = plane > G * plane`` (scipy's Gaussian of ``weights``, ``reflect``: its
     floats) on rows ``[y0, y1)``, at the True pixels of ``where``; False on the others.
@@ -499,7 +500,7 @@ def local_mean_band(plane, weights, where, flags, y0, y1):
                         out[i] = source[i] > _gauss_at_pixel(line, i, weights)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _gauss_at_pixel(line, i, weights):
     """:func:`_gauss_line`'s output ``i``: ``line[r + i] w0``, then ``+= (line[r + i - j] +
     line[r + i + j]) w[j]`` for j = r .. 1, in this order (the same float)."""
@@ -518,7 +519,7 @@ FLOAT32_ERROR = 64 * 2.0**-24
 EDGE = 12
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@cached_njit(nogil=True, error_model="numpy")
 def smooth_band(
     fine,
     fine32,
@@ -703,7 +704,7 @@ def smooth_band(
     return count, exact
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@cached_njit(nogil=True, error_model="numpy")
 def _needed_rows(
     lags,
     energy,
@@ -761,7 +762,7 @@ def _needed_rows(
     return any_row
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _compare(c, threshold, margin):
     """Whether ``C > threshold``: 0 (no), 1 (yes), or 2 when ``C``'s error bound leaves it open.
 
@@ -774,7 +775,7 @@ def _compare(c, threshold, margin):
     return 1 if c > threshold else 0
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@cached_njit(nogil=True, error_model="numpy")
 def _energy_row(energy, halo, e0, y0, y1, y):
     """Row y of the energy: the band's own rows ``[y0, y1)`` or the halo's."""
     if y < y0:
@@ -784,13 +785,13 @@ def _energy_row(energy, halo, e0, y0, y1, y):
     return energy[y]
 
 
-@njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _larger(a, b):
     """``max(a, b)`` (``a`` if ``b`` is NaN), in a form the compiler turns into SIMD."""
     return b if b > a else a
 
 
-@njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _larger_or_nan(a, b):
     """``max(a, b)``, NaN if either is NaN, in a form the compiler turns into SIMD."""
     return b if (b > a or b != b) else a
@@ -800,7 +801,7 @@ def _larger_or_nan(a, b):
 MARGIN_GROUP = 4
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@cached_njit(nogil=True, error_model="numpy")
 def _margins(energy, halo, e0, y0, y1, b0, b1, x0, x1, largest_square, inverse, margins):
     """``1 / E`` and the float32 error bound of the correlations, for a block.
 
@@ -856,7 +857,7 @@ def _margins(energy, halo, e0, y0, y1, b0, b1, x0, x1, largest_square, inverse, 
                 row_margin[i] = FLOAT32_ERROR * (0.5 + 0.5 * bound * row_inverse[i]) + 1e-12
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _and(a, b):
     if a == 0 or b == 0:
         return 0
@@ -865,7 +866,7 @@ def _and(a, b):
     return 1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _or(a, b):
     if a == 1 or b == 1:
         return 1
@@ -874,7 +875,7 @@ def _or(a, b):
     return 0
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _decide(lags, row, i, inverse, margin, along, alternation):
     """``(decided, wall)``: the wall decision at a pixel from the float32 maps, if they settle it.
 
@@ -908,7 +909,7 @@ def _decide(lags, row, i, inverse, margin, along, alternation):
     return True, False
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _product(fine, row, column, dy, dx):
     """``0.5 * (h(p) h(p + d) + h(p - d) h(p))``, lags wrapping, as :func:`_source_row`."""
     height, width = fine.shape
@@ -919,7 +920,7 @@ def _product(fine, row, column, dy, dx):
     )
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _exact_smoothed(fine, weights, y, x, dy, dx):
     """The float64 Gaussian of the lag product at one pixel, as the block pipeline and
     scipy compute it: the same operations in the same order (so the same float)."""
@@ -940,7 +941,7 @@ def _exact_smoothed(fine, weights, y, x, dy, dx):
     return value
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _exact_wall(fine, weights, y, x, e, along_threshold, alternation_threshold):
     """The wall decision at one pixel (energy ``e`` above the floor), all in float64."""
     denominator = e if not e < 1e-12 else 1e-12
@@ -973,7 +974,7 @@ TENSOR_RING_BYTES = 256 * 1024
 TENSOR_MIN_TILE = 512
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _doubled_row(plane, scale, i, origin, line, even, odd):
     """Row ``i`` of ``zoom(plane, 2, order=1, grid_mode=True, mode="nearest")``, split by parity.
 
@@ -1026,13 +1027,13 @@ def _doubled_row(plane, scale, i, origin, line, even, odd):
         odd[j] = last
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _interpolate(a, b, wa, wb, out):
     for x in range(out.shape[0]):
         out[x] = wa * a[x] + wb * b[x]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _tensor_products(
     up_e, up_o, mid_e, mid_o, down_e, down_o, work, products_e, products_o
 ):
@@ -1079,20 +1080,20 @@ def _tensor_products(
     return m
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _sobel_phase(left, centre, right, out):
     two = np.float32(2.0)  # float32 arithmetic: a float64 constant would widen the loop
     for x in range(centre.shape[0]):
         out[x] = left[x] + two * centre[x] + right[x]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _difference(a, b, out):
     for x in range(a.shape[0]):
         out[x] = a[x] - b[x]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _products(dr, dc, rr, rc, cc):
     for x in range(dr.shape[0]):
         rr[x] = dr[x] * dr[x]
@@ -1100,7 +1101,7 @@ def _products(dr, dc, rr, rc, cc):
         cc[x] = dc[x] * dc[x]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _gauss_even(line_e, line_o, pad, weights, out):
     """Gaussian of a doubled line at its even columns, from its two phases.
 
@@ -1139,7 +1140,7 @@ def _gauss_even(line_e, line_o, pad, weights, out):
             t -= 1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _phase_pair(line_e, line_o, pad, n, t):
     """The two lines of doubled offsets -t and +t for the even outputs 0 .. n - 1."""
     if t % 2 == 0:
@@ -1149,7 +1150,7 @@ def _phase_pair(line_e, line_o, pad, n, t):
     return line_o[pad - m - 1 : pad - m - 1 + n], line_o[pad + m : pad + m + n]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _tensor_tile(
     plane, scale, weights, mode, needed, tile_index, x0, x1, y0, y1, out0, out1, out2, out3
 ):
@@ -1228,13 +1229,13 @@ def _tensor_tile(
             )
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _copy(source, target):
     for x in range(target.shape[0]):
         target[x] = source[x]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _derive(rr, rc, cc, strength, coherent, cosine, sine):
     """Strength ``l1 + l2``, coherence times strength, cos and sin of twice the angle."""
     for x in range(strength.shape[0]):
@@ -1245,7 +1246,7 @@ def _derive(rr, rc, cc, strength, coherent, cosine, sine):
         sine[x] = s
 
 
-@njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _derived(rr, rc, cc):
     """:func:`_derive` at one pixel, in float64 (stored in float32 by the callers)."""
     jrr = np.float64(rr)
@@ -1266,7 +1267,7 @@ def _derived(rr, rc, cc):
     return trace, coherence * trace, c, s
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _derive_where(rr, rc, cc, mask, start, strength, coherent, cosine, sine):
     """:func:`_derive` at the True pixels of ``mask`` only, written one after the other
     from index ``start`` of the outputs (the components gathered first, then derived in
@@ -1290,7 +1291,7 @@ def _derive_where(rr, rc, cc, mask, start, strength, coherent, cosine, sine):
     )
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def orientation_band(plane, scale, weights, mode, needed, out0, out1, out2, out3, y0, y1):
     """Structure tensor of ``zoom(plane, 2)`` at the even doubled pixels of rows ``[y0, y1)``.
 
@@ -1332,7 +1333,7 @@ def decimated_sigma(sigma: float) -> float:
     return float(np.sqrt(sigma * sigma - PREFILTER_VARIANCE))
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _doubled_products(
     plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work, products_e, products_o
 ):
@@ -1360,7 +1361,7 @@ def _doubled_products(
     )
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _prefilter_columns(products_e, products_o, weight, out):
     """``out[c, k] += weight * (P_o[k - 1] + 2 P_e[k] + P_o[k])`` for k in [1, n): the
     doubled row's 1-2-1 filter across columns, sampled at the even (original) columns."""
@@ -1374,7 +1375,7 @@ def _prefilter_columns(products_e, products_o, weight, out):
             target[k] += weight * ((odd[k - 1] + odd[k]) + two * even[k])
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _add_doubled(
     plane,
     scale,
@@ -1410,7 +1411,7 @@ def _add_doubled(
     _prefilter_columns(products_e, products_o, weight, out)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _decimated_tile(
     plane,
     scale,
@@ -1575,7 +1576,7 @@ def _decimated_tile(
             )
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def decimated_tensor_band(
     plane, scale, weights, mode, needed, starts, mask, out0, out1, out2, out3, y0, y1
 ):
@@ -1621,7 +1622,7 @@ def tensor_tiles(width: int, radius: int) -> int:
     return max(1, (width + tile - 1) // tile)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def tiles_with(mask, needed, y0, y1):
     """``needed[y, k]`` = whether row y of column tile k (see :func:`orientation_band`)
     holds a True pixel of ``mask``, for rows ``[y0, y1)``."""
@@ -1638,7 +1639,7 @@ def tiles_with(mask, needed, y0, y1):
             needed[y, k] = found
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def mask_counts(mask, counts, y0, y1):
     """``counts[y, k]`` = the True pixels of ``mask`` in row y of column tile k (see
     :func:`orientation_band`), for rows ``[y0, y1)``."""
@@ -1663,7 +1664,7 @@ def mask_starts(counts: np.ndarray) -> np.ndarray:
 # --- reductions --------------------------------------------------------------------------
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def sobel_band(plane, out, sums, y0, y1):
     """``skimage.filters.sobel`` (``reflect``) on rows ``[y0, y1)``; ``sums[y]``: min, max, sum."""
     width = plane.shape[1]
@@ -1674,7 +1675,7 @@ def sobel_band(plane, out, sums, y0, y1):
         _sobel_row(plane, y, padded, rows, columns, out[y], sums[y])
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _sobel_row(plane, y, padded, rows, columns, row, sums):
     """Row y of :func:`sobel_band` into ``row``; ``sums[0:3]``: its min, max and sum."""
     height, width = plane.shape
@@ -1695,7 +1696,7 @@ def _sobel_row(plane, y, padded, rows, columns, row, sums):
     sums[2] = _sum(row)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _sobel_rows(up, mid, down, rows, columns):
     """The two Sobel derivatives (skimage's weights 1 2 1 / 4) of a row, from padded rows."""
     for x in range(rows.shape[0]):
@@ -1708,7 +1709,7 @@ def _sobel_rows(up, mid, down, rows, columns):
         )
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def centred_sums(first, second, first_mean, second_mean, sums, y0, y1):
     """``sums[y]``: the sums of ``(a - ma)**2`` and of ``(b - mb)**2`` over row y."""
     width = first.shape[1]
@@ -1724,7 +1725,7 @@ def centred_sums(first, second, first_mean, second_mean, sums, y0, y1):
         sums[y, 1] = _sum(squares)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def added_edge_sums(after, before, edges, added_mean, edges_mean, sums, y0, y1):
     """For ``a = after - before`` and ``s = edges``, ``sums[y]`` gets, over row y:
     ``sum((a - ma)(s - ms))``, ``sum((a - ma)**2)``, min(a), max(a)."""
@@ -1750,7 +1751,7 @@ def added_edge_sums(after, before, edges, added_mean, edges_mean, sums, y0, y1):
         sums[y, 3] = high
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def wall_pair_counts(walls, positive, y0, y1):
     """Per lattice direction d: pixels p with walls at p and p + d (wrapping, as ``np.roll``),
     and among them those where ``positive`` differs between p and p + d."""
@@ -1779,7 +1780,7 @@ def wall_pair_counts(walls, positive, y0, y1):
     return counts
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _pair_counts(walls, next_walls, signs, next_signs):
     both = 0
     flips = 0
@@ -1790,7 +1791,7 @@ def _pair_counts(walls, next_walls, signs, next_signs):
     return both, flips
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def wall_weighted_sums(row_starts, strength, coherent, sums, y0, y1):
     """``sums[y]``: ``sum(coherent * walls)`` and ``sum(strength * walls)`` over row y, from
     maps held at the wall pixels only (row y's from index ``row_starts[y]`` to
@@ -1805,7 +1806,7 @@ def wall_weighted_sums(row_starts, strength, coherent, sums, y0, y1):
         sums[y, 1] = denominator
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def alignment_sums(
     walls,
     row_starts,

@@ -22,6 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ._jit import cached_njit
 from ._kernel import labyrinth_pass
 from ._tone_loops import _tone
 from .codes import WRAP
@@ -37,7 +38,7 @@ def band_rows(width: int) -> int:
     return max(4, _BAND_BYTES // (4 * max(1, width)))
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def banded_pass(values, target, tones, rows, tones_in, write_out, paper_uint8, low, gain, low32,
                 gain32, wide, lowest, highest, mean_threshold, variance_threshold, range_bounds,
                 tone_low, tone_high, max_tries, seed, plane_index, pass_index, border,

@@ -20,6 +20,7 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from ._jit import cached_njit
 from .codes import (
     INSIDE,
     KEEP,
@@ -95,7 +96,7 @@ def _mix(x):
     return z ^ (z >> np.uint64(31))
 
 
-@njit(cache=True)
+@cached_njit()
 def stream_key(seed, plane_index, pass_index):
     """Key of the random stream of one plane in one pass."""
     key = _mix(np.uint64(seed))
@@ -369,7 +370,7 @@ def _note_written(changes, index):
         changes[0] = written + 1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone_low, tone_high,
                    max_tries, seed, plane_index, pass_index, border, variance_ratio,
                    variance_action, condition_order, on_exhausted, scan, include_centre,

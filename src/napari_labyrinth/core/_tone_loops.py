@@ -26,10 +26,11 @@ import math
 import numpy as np
 from numba import njit
 
+from ._jit import cached_njit
 from ._kernel import prefetch_flat
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def count_values(flat, offset, counts):
     """Add to ``counts[v - offset]`` one for every value v of the 1-D array ``flat``.
 
@@ -77,7 +78,7 @@ def _extremes(chunk, size):
     return low, high
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def block_extremes(flat, offset, shift, below, above):
     """The least and greatest value of every ``EXTREMES_BLOCK`` values of ``flat``.
 
@@ -101,7 +102,7 @@ def block_extremes(flat, offset, shift, below, above):
     return least, greatest
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def count_tails(flat, least, greatest, low_stop, low_start, low_counts, high_start, high_counts):
     """Count the values below ``low_stop`` and those from ``high_start`` on.
 
@@ -179,7 +180,7 @@ def _count_from(flat, start, stop, bound, counts):
             counts[i & 3, value - bound] += 1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def tail_values(flat, offset, shift, bins, ranks, values):
     """``percentiles.tail_rank_values`` in one call: True and the values of ``ranks`` in
     ``values``, or False when the blocks that may hold them are more than a quarter.
@@ -266,7 +267,7 @@ SPOT_VALUES = 8
 _GOLDEN = 0.6180339887498949
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def sample_starts(n, spots):
     """Where each of ``spots`` spots of ``sampled_tail_values`` starts among ``n`` values."""
     span = n - 4 * SPOT_VALUES + 1
@@ -276,7 +277,7 @@ def sample_starts(n, spots):
     return starts
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def sampled_tail_values(flat, offset, shift, bins, ranks, values, spots):
     """The values of ``ranks`` (0 the least) of the 8- or 16-bit integers ``flat`` in one
     sweep, with bounds from a sample; False when the sample's bounds miss a rank, when
@@ -484,7 +485,7 @@ def _tone(value, low, gain, low32, gain32, wide):
     return min(max(tone, np.float32(0.0)), np.float32(255.0))
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def integer_tones(values, tones, low, gain, low32, gain32, wide):
     """Fill the float32 plane ``tones`` with the tones of the integer plane ``values``."""
     height, width = values.shape
@@ -493,7 +494,7 @@ def integer_tones(values, tones, low, gain, low32, gain32, wide):
             tones[y, x] = _tone(values[y, x], low, gain, low32, gain32, wide)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def write_back(target, source, tones, low, gain, low32, gain32, wide, lowest, highest):
     """Where a tone of ``tones`` differs from that of ``source``, write its value to ``target``.
 
@@ -512,7 +513,7 @@ def write_back(target, source, tones, low, gain, low32, gain32, wide, lowest, hi
             target[y, x] = min(max(value, lowest), highest)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def write_back_at(target, source, tones, indices, low, gain, low32, gain32, wide, lowest,
                   highest):  # fmt: skip
     """``write_back`` at the pixels of flat indices ``y * W + x`` in ``indices`` only.
@@ -533,7 +534,7 @@ def write_back_at(target, source, tones, indices, low, gain, low32, gain32, wide
         target[y, x] = min(max(value, lowest), highest)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def rounded_tones(target, tones):
     """``target[...] = rint(tones)`` clipped to 0-255: uint8 values on the scale (0, 255).
 
