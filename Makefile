@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test fuzz bench-hostile file-cases bench bench-speed bench-scale bench-widget bench-metrics bench-window study gallery screenshot install install-test system-packages clean
+.PHONY: demo test fuzz bench-hostile file-cases bench bench-speed bench-scale bench-widget bench-metrics bench-window bench-cold study gallery screenshot install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
@@ -97,3 +97,8 @@ system-packages:
 
 clean:
 	rm -rf $(VENV) demo-output build dist .pytest_cache .hypothesis
+
+# Cold start: first call against second, each row in a new process with an empty numba
+# cache (API, CLI, the widget opened from the Plugins menu); BEFORE=f22d86f adds that commit.
+bench-cold: $(VENV)/.installed-test system-packages
+	xvfb-run -a $(PY) benchmarks/bench_cold_start.py $(if $(BEFORE),--before $(BEFORE))
