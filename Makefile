@@ -102,3 +102,11 @@ clean:
 # cache (API, CLI, the widget opened from the Plugins menu); BEFORE=f22d86f adds that commit.
 bench-cold: $(VENV)/.installed-test system-packages
 	xvfb-run -a $(PY) benchmarks/bench_cold_start.py $(if $(BEFORE),--before $(BEFORE))
+
+# The built wheel installed as users install it (a fresh venv they cannot write to), its
+# numba cache in their cache directory, and no cache at all (1-2 min): not part of make test.
+.PHONY: test-install
+test-install: $(VENV)/.installed-test
+	NAPARI_LABYRINTH_INSTALL_TESTS=1 $(PY) -m pytest tests/test_install_wheel.py -v \
+		-p no:cacheprovider
+
