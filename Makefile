@@ -110,3 +110,29 @@ test-install: $(VENV)/.installed-test
 	NAPARI_LABYRINTH_INSTALL_TESTS=1 $(PY) -m pytest tests/test_install_wheel.py -v \
 		-p no:cacheprovider
 
+# The environments the project claims, from the built wheel: napari 0.5 / 0.6 / latest with
+# PyQt5, PyQt6 and PySide6, the oldest napari with numpy 1.26 (noxfile.py), then the install
+# test. Not part of make test. One session: make test-matrix NOX_ARGS="-s napari-latest-pyside6".
+NOX_ARGS ?=
+# What the xcb platform plugins of Qt 5 and Qt 6 link (ldd); PyQt5's libxcb-xinerama0 is the
+# one Debian's base image lacks beyond APT_PACKAGES.
+QT_APT_PACKAGES := libxcb-xinerama0 libxcb-cursor0 libxcb-image0 libxcb-randr0 \
+	libxcb-render-util0 libxcb-shape0 libxcb-sync1 libxcb-xfixes0 libxcb-xkb1 libx11-xcb1 \
+	libxkbcommon-x11-0 libfontconfig1 libdbus-1-3 libglib2.0-0 libgl1 libegl1
+MATRIX_SUMMARY := build/nox/summary
+
+.PHONY: test-matrix
+test-matrix: APT_PACKAGES += $(QT_APT_PACKAGES)
+test-matrix: $(VENV)/.installed-test system-packages
+	$(PIP) install -q "nox>=2025.2.9" "uv>=0.5"
+	@rm -rf $(MATRIX_SUMMARY); mkdir -p $(MATRIX_SUMMARY); start=$$(date +%s); status=0; \
+	$(VENV)/bin/nox $(NOX_ARGS) || status=1; \
+	if [ -z "$(NOX_ARGS)" ]; then t=$$(date +%s); \
+	  NAPARI_LABYRINTH_INSTALL_TESTS=1 $(PY) -m pytest tests/test_install_wheel.py -q \
+	    -p no:cacheprovider && r=passed || { r=failed; status=1; }; \
+	  echo "install-test: $$r ($$(( $$(date +%s) - t )) s)" > $(MATRIX_SUMMARY)/zz-install.txt; \
+	fi; \
+	echo; echo "== test matrix ($$(( $$(date +%s) - start )) s)"; \
+	for f in $(MATRIX_SUMMARY)/*.txt; do case $$f in *.failed.txt) ;; *) cat $$f;; esac; done; \
+	cat $(MATRIX_SUMMARY)/*.failed.txt 2>/dev/null | sed 's/^/  FAILED /'; \
+	exit $$status
