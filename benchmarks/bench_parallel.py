@@ -85,8 +85,8 @@ def timed(function, repeats=1, clock=time.perf_counter):
 def tiled_pass(tones, parameters, workers, tile):
     """One pass of the exact-order tiles on ``workers`` threads (1 included), in place."""
     from napari_labyrinth import _engine
-    from napari_labyrinth.core._kernel import labyrinth_pass
 
+    labyrinth_pass = _engine._pass_kernel(parameters)
     counts = np.zeros(6, np.int64)
     arguments = (tones, *_engine._kernel_arguments(parameters), np.uint64(0), 0, 0)
     options = (*_engine._kernel_options(parameters), False)
@@ -238,8 +238,8 @@ def bench_tiles(repeats, presets=PRESETS):
 def tile_times(tones, parameters, tile):
     """CPU seconds of every tile, run one after the other on this thread (band by band)."""
     from napari_labyrinth import _engine
-    from napari_labyrinth.core._kernel import labyrinth_pass
 
+    labyrinth_pass = _engine._pass_kernel(parameters)
     rows, diagonals = tile
     height = tones.shape[0]
     tiles = _engine.exact_order_tiles(tones.shape, rows, diagonals)

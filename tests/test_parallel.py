@@ -91,7 +91,6 @@ from napari_labyrinth._engine import (  # noqa: E402
     exact_order_tiles,
     run_pass,
 )
-from napari_labyrinth.core._kernel import labyrinth_pass  # noqa: E402
 from napari_labyrinth.core.parameters import PARAMETERS, make_parameters  # noqa: E402
 
 #: Every option the tiles reproduce: the choices of the parameter table but
@@ -159,8 +158,9 @@ def test_tiles_equal_the_raster_scan_on_odd_sizes_and_non_finite_planes(shape, h
 
 def _tile_order_results(plane, parameters, rows, diagonals, order):
     """The plane after running its tiles one after the other in ``order``."""
-    from napari_labyrinth._engine import _kernel_arguments, _kernel_options
+    from napari_labyrinth._engine import _kernel_arguments, _kernel_options, _pass_kernel
 
+    labyrinth_pass = _pass_kernel(parameters)
     work = plane.copy()
     counts = np.zeros(6, np.int64)
     has_nonfinite = not np.isfinite(plane).all()
@@ -215,8 +215,9 @@ def test_rectangles_in_wave_order_would_not_equal_the_raster_scan():
     serial = plane.copy()
     run_pass(serial, parameters, seed=3, plane_index=1, pass_index=2)
     rectangles = plane.copy()
-    from napari_labyrinth._engine import _kernel_arguments, _kernel_options
+    from napari_labyrinth._engine import _kernel_arguments, _kernel_options, _pass_kernel
 
+    labyrinth_pass = _pass_kernel(parameters)
     for wave in range(7):
         for band in range(4):
             j = wave - band

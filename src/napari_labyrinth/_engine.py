@@ -250,8 +250,9 @@ def _banded_pass(
 ) -> None:
     """One pass of ``core._banded_pass.banded_pass`` over ``work``, the tones of ``values``:
     made in the first pass, and the values written into ``target`` unless it is None."""
-    from .core._banded_pass import band_rows, banded_pass  # numba is imported on first use only
+    from .core._banded_pass import band_rows, banded_kernel  # numba is imported on first use only
 
+    banded_pass = banded_kernel(*_variant_options(parameters))
     write_out = target is not None
     if not write_out:  # never written then, but typed as written: numba refuses a read-only
         target = np.empty((0, 0), values.dtype)  # array there (``values`` may be one)
@@ -349,8 +350,7 @@ def run_pass(
     more threads than :func:`idle_cores`: on a core shared with a busy task,
     a tile thread would hold up the others.
     """
-    from .core._kernel import labyrinth_pass  # numba is imported on first use only
-
+    labyrinth_pass = _pass_kernel(parameters)
     if counts is None:
         counts = np.zeros(len(DIAGNOSTIC_FIELDS), dtype=np.int64)
     if changes is None:  # room for none: every call compiles to the same kernel
@@ -703,6 +703,19 @@ def _kernel_arguments(parameters: LabyrinthParameters) -> tuple[Any, ...]:
         tone_high,
         parameters.max_tries,
     )
+
+
+def _variant_options(parameters: LabyrinthParameters) -> tuple[int, bool]:
+    """The options that select the kernel's compiled variant: ``condition_order``'s code
+    and ``include_centre`` (``core._kernel.pass_kernel``)."""
+    return OPTION_CODES["condition_order"][parameters.condition_order], parameters.include_centre
+
+
+def _pass_kernel(parameters: LabyrinthParameters):
+    """The numba kernel of one pass (``labyrinth_pass``) compiled for ``parameters``."""
+    from .core._kernel import pass_kernel  # numba is imported on first use only
+
+    return pass_kernel(*_variant_options(parameters))
 
 
 @functools.lru_cache(maxsize=64)

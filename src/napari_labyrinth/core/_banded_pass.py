@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 
 from ._jit import cached_njit
-from ._kernel import labyrinth_pass
+from ._kernel import PASS_VARIANTS, variant_index
 from ._tone_loops import _tone
 from .codes import WRAP
 
@@ -38,89 +38,118 @@ def band_rows(width: int) -> int:
     return max(4, _BAND_BYTES // (4 * max(1, width)))
 
 
-@cached_njit(nogil=True)
-def banded_pass(values, target, tones, rows, tones_in, write_out, paper_uint8, low, gain, low32,
-                gain32, wide, lowest, highest, mean_threshold, variance_threshold, range_bounds,
-                tone_low, tone_high, max_tries, seed, plane_index, pass_index, border,
-                variance_ratio, variance_action, condition_order, on_exhausted, scan,
-                include_centre, counts, changes):  # fmt: skip
-    """One pass of ``labyrinth_pass`` over the tones of the integer plane ``values``.
+_pass_0, _pass_1, _pass_2, _pass_3 = PASS_VARIANTS
 
-    Parameters
-    ----------
-    values : (H, W) integer C-contiguous array
-        The plane's values before the passes (never written).
-    target : (H, W) array of the dtype of ``values``
-        With ``write_out``, every pixel gets its value after this pass: the
-        value of the source where its tone did not change, else
-        ``rint(tone / gain + low)`` clipped to ``[lowest, highest]``
-        (``ToneScale.from_tones``).
-    tones : (H, W) or (rows + 2, W) float32 C-contiguous array
-        The tones the pass updates in place; with ``tones_in`` it need hold
-        nothing: each row gets the tone of its values just before the kernel
-        reads it (``ToneScale.to_tones``). With ``tones_in`` and
-        ``write_out`` (the only pass of a render) it may be a ring of one
-        band and the rows above and below it, which the bands take in turn:
-        the tones never leave the cache (any border but ``"wrap"``).
-    rows : int
-        Rows of a band (``band_rows(W)``; a ring holds ``rows + 2``).
-    tones_in, write_out, paper_uint8 : bool
-        Make the tones; write the values; uint8 on the scale (0, 255), where
-        a tone is its value (in a whole plane every one is rounded back,
-        nothing compared; in a ring the values are copied with the tones and
-        the changed ones written, as for any other scale).
-    low, gain, low32, gain32, wide, lowest, highest
-        The tone scale as ``_tone_loops.write_back`` takes it.
-    mean_threshold, ..., include_centre, counts
-        As ``labyrinth_pass`` takes them (a plane of integers is finite),
-        any scan but the checkerboard.
-    changes : (1 + capacity,) int64 array
-        The pixels the passes write, as ``labyrinth_pass`` notes them (zero
-        before the first pass): with a ring, those of each band in turn; with
-        a whole plane, those of every pass so far. Where they are few, the
-        source values are copied and only they are written.
-    """
-    height, width = values.shape
-    ring = tones.shape[0] < height
-    made = 0  # rows whose tones are made
-    # a whole plane that changed little so far: its values are written after the pass
-    deferred = write_out and not ring and not paper_uint8 and 32 * changes[0] < height * width
-    # the only pass, a ring: the source values copied into the target with the tones
-    # (uint8 on (0, 255) too: a copy and the few changes cost less than rounding every tone)
-    copied = ring and write_out
-    if tones_in and border == WRAP and height > 1:  # row 0 reads the last row
-        _make_tones(values, tones, height - 1, height, 0, low, gain, low32, gain32, wide)
-    for band_start in range(0, height, rows):
-        band_stop = min(height, band_start + rows)
-        # ``tones`` holds the rows from ``offset`` on: the ring, from the row above the band
-        offset = band_start - 1 if ring else 0
-        if ring and band_start > 0:  # the last row of the band above, and the band's first
-            for k in range(2):
-                for x in range(width):
-                    tones[k, x] = tones[rows + k, x]
-        if tones_in:  # the band and the row below it, which the band's last row reads
-            ahead = min(height, band_stop + 1)
-            if copied:  # and the source values into the target, where few will change
-                _make_tones_and_copy(values, tones, target, made, ahead, offset, low, gain, low32,
-                                     gain32, wide)  # fmt: skip
+
+def _banded_pass_variant(variant):
+    """``banded_pass`` compiled with the kernel ``PASS_VARIANTS[variant]`` (see
+    ``_kernel.pass_kernel``); :func:`banded_kernel` picks it."""
+
+    @cached_njit(nogil=True)
+    def banded_pass(values, target, tones, rows, tones_in, write_out, paper_uint8, low, gain,
+                    low32, gain32, wide, lowest, highest, mean_threshold, variance_threshold,
+                    range_bounds, tone_low, tone_high, max_tries, seed, plane_index, pass_index,
+                    border, variance_ratio, variance_action, condition_order, on_exhausted, scan,
+                    include_centre, counts, changes):  # fmt: skip
+        """One pass of ``labyrinth_pass`` over the tones of the integer plane ``values``.
+
+        Parameters
+        ----------
+        values : (H, W) integer C-contiguous array
+            The plane's values before the passes (never written).
+        target : (H, W) array of the dtype of ``values``
+            With ``write_out``, every pixel gets its value after this pass: the
+            value of the source where its tone did not change, else
+            ``rint(tone / gain + low)`` clipped to ``[lowest, highest]``
+            (``ToneScale.from_tones``).
+        tones : (H, W) or (rows + 2, W) float32 C-contiguous array
+            The tones the pass updates in place; with ``tones_in`` it need hold
+            nothing: each row gets the tone of its values just before the kernel
+            reads it (``ToneScale.to_tones``). With ``tones_in`` and
+            ``write_out`` (the only pass of a render) it may be a ring of one
+            band and the rows above and below it, which the bands take in turn:
+            the tones never leave the cache (any border but ``"wrap"``).
+        rows : int
+            Rows of a band (``band_rows(W)``; a ring holds ``rows + 2``).
+        tones_in, write_out, paper_uint8 : bool
+            Make the tones; write the values; uint8 on the scale (0, 255), where
+            a tone is its value (in a whole plane every one is rounded back,
+            nothing compared; in a ring the values are copied with the tones and
+            the changed ones written, as for any other scale).
+        low, gain, low32, gain32, wide, lowest, highest
+            The tone scale as ``_tone_loops.write_back`` takes it.
+        mean_threshold, ..., include_centre, counts
+            As ``labyrinth_pass`` takes them (a plane of integers is finite),
+            any scan but the checkerboard.
+        changes : (1 + capacity,) int64 array
+            The pixels the passes write, as ``labyrinth_pass`` notes them (zero
+            before the first pass): with a ring, those of each band in turn; with
+            a whole plane, those of every pass so far. Where they are few, the
+            source values are copied and only they are written.
+        """
+        height, width = values.shape
+        ring = tones.shape[0] < height
+        made = 0  # rows whose tones are made
+        # a whole plane that changed little so far: its values are written after the pass
+        deferred = write_out and not ring and not paper_uint8 and 32 * changes[0] < height * width
+        # the only pass, a ring: the source values copied into the target with the tones
+        # (uint8 on (0, 255) too: a copy and the few changes cost less than rounding every tone)
+        copied = ring and write_out
+        if tones_in and border == WRAP and height > 1:  # row 0 reads the last row
+            _make_tones(values, tones, height - 1, height, 0, low, gain, low32, gain32, wide)
+        for band_start in range(0, height, rows):
+            band_stop = min(height, band_start + rows)
+            # ``tones`` holds the rows from ``offset`` on: the ring, from the row above the band
+            offset = band_start - 1 if ring else 0
+            if ring and band_start > 0:  # the last row of the band above, and the band's first
+                for k in range(2):
+                    for x in range(width):
+                        tones[k, x] = tones[rows + k, x]
+            if tones_in:  # the band and the row below it, which the band's last row reads
+                ahead = min(height, band_stop + 1)
+                if copied:  # and the source values into the target, where few will change
+                    _make_tones_and_copy(values, tones, target, made, ahead, offset, low, gain,
+                                         low32, gain32, wide)  # fmt: skip
+                else:
+                    _make_tones(values, tones, made, ahead, offset, low, gain, low32, gain32, wide)
+                made = ahead
+            if ring:
+                changes[0] = 0
+            kernel_arguments = (
+                tones, mean_threshold, variance_threshold, range_bounds, tone_low, tone_high,
+                max_tries, seed, plane_index, pass_index, border, variance_ratio, variance_action,
+                condition_order, on_exhausted, scan, include_centre, False, counts, -1, band_start,
+                band_stop, 0, -1, changes, offset, height,
+            )  # fmt: skip
+            # ``variant`` is a constant: the branches of the other variants fold away (a
+            # kernel taken from a tuple would be called through a pointer, not compiled in)
+            if variant == 0:
+                _pass_0(*kernel_arguments)
+            elif variant == 1:
+                _pass_1(*kernel_arguments)
+            elif variant == 2:
+                _pass_2(*kernel_arguments)
             else:
-                _make_tones(values, tones, made, ahead, offset, low, gain, low32, gain32, wide)
-            made = ahead
-        if ring:
-            changes[0] = 0
-        labyrinth_pass(
-            tones, mean_threshold, variance_threshold, range_bounds, tone_low, tone_high,
-            max_tries, seed, plane_index, pass_index, border, variance_ratio, variance_action,
-            condition_order, on_exhausted, scan, include_centre, False, counts, -1, band_start,
-            band_stop, 0, -1, changes, offset, height,
-        )  # fmt: skip
-        if write_out and not deferred:
-            _write_band(target, values, tones, band_start, band_stop, offset, changes, ring,
-                        paper_uint8, copied, low, gain, low32, gain32, wide, lowest,
-                        highest)  # fmt: skip
-    if deferred:
-        _write_band(target, values, tones, 0, height, 0, changes, True, False, False, low, gain,
-                    low32, gain32, wide, lowest, highest)  # fmt: skip
+                _pass_3(*kernel_arguments)
+            if write_out and not deferred:
+                _write_band(target, values, tones, band_start, band_stop, offset, changes, ring,
+                            paper_uint8, copied, low, gain, low32, gain32, wide, lowest,
+                            highest)  # fmt: skip
+        if deferred:
+            _write_band(target, values, tones, 0, height, 0, changes, True, False, False, low,
+                        gain, low32, gain32, wide, lowest, highest)  # fmt: skip
+
+    return banded_pass
+
+
+#: ``banded_pass`` for each of the kernel's variants, in the order of ``PASS_VARIANTS``.
+BANDED_VARIANTS = tuple(_banded_pass_variant(variant) for variant in range(len(PASS_VARIANTS)))
+
+
+def banded_kernel(condition_order: int, include_centre: bool):
+    """``banded_pass`` for ``condition_order`` and ``include_centre``, which its own
+    arguments must repeat."""
+    return BANDED_VARIANTS[variant_index(condition_order, include_centre)]
 
 
 @njit(nogil=True)

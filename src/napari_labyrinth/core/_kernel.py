@@ -370,205 +370,243 @@ def _note_written(changes, index):
         changes[0] = written + 1
 
 
-@cached_njit(nogil=True)
-def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone_low, tone_high,
-                   max_tries, seed, plane_index, pass_index, border, variance_ratio,
-                   variance_action, condition_order, on_exhausted, scan, include_centre,
-                   has_nonfinite, counts, colour=-1, row_start=0, row_stop=-1,
-                   diagonal_start=0, diagonal_stop=-1, changes=None, row_offset=0,
-                   plane_height=-1):  # fmt: skip
-    """Run one pass of the algorithm over ``plane`` in place (Eq. 1-4).
+def _labyrinth_pass_variant(variance_decides_first, centre_counts):
+    """The kernel of one pass compiled for one condition order and one N.
 
-    Parameters
-    ----------
-    plane : (H, W) float32 C-contiguous array
-        Tones on the 0-255 scale; non-finite values never change and never count.
-    mean_threshold, variance_threshold, range_bounds, tone_low, tone_high, max_tries
-        t of Eq. 2, V of Eq. 4, the inner range limits L_sup^1 .. L_sup^(n-1),
-        T_inf^i and T_sup^i of Eq. 3 (float64 arrays), and the draws before giving up.
-    seed, plane_index, pass_index : int
-        Select the random stream (see ``stream_key``).
-    border, variance_ratio, variance_action, condition_order, on_exhausted, scan : int
-        The options' codes, in the order of ``codes.OPTION_CODES``; then
-        ``include_centre`` (bool) and ``has_nonfinite`` (False promises an
-        all-finite plane: interior pixels skip the checks).
-    counts : (6,) int64 array
-        Incremented at the diagnostic codes (``codes.KEPT_BY_MEAN``, ...).
-    colour : int, optional
-        -1: every pixel in the order of ``scan``; 0-3: only the pixels with
-        ``(y % 2, x % 2) == (colour // 2, colour % 2)``, none of them
-        neighbours, so bands of rows of one colour may run on threads at once.
-    row_start, row_stop, diagonal_start, diagonal_stop : int, optional
-        Only the rows ``row_start <= y < row_stop`` and, in a raster or
-        serpentine scan, the pixels with ``diagonal_start <= x + y <
-        diagonal_stop``: a parallelogram tile of the exact-order schedule
-        (``_engine``). A stop of -1 is the end of the plane.
-    changes : (1 + capacity,) int64 array, optional
-        Where the pass notes the pixels it writes: ``changes[0]`` is
-        incremented for every write and the first ``capacity`` writes' flat
-        indices ``y * W + x`` follow it (so that the write-back of a few
-        changes need not visit the whole plane). A pixel written to the
-        tone it had is noted too.
-    row_offset, plane_height : int, optional
-        ``plane`` holds only the rows ``row_offset, row_offset + 1, ...`` of a
-        plane of ``plane_height`` rows (-1: ``plane`` is the whole plane): a
-        band of rows with the rows around it that the pass reads. Rows,
-        random streams and borders are those of the whole plane.
-
-    Notes
-    -----
-    Interior pixels of an all-finite plane that are kept as they are (the
-    common case) run in a tight loop (``_kept_run``), one copy per value of
-    ``condition_order`` and ``include_centre``; every other pixel takes the
-    full path below it. Both agree with ``_reference.py`` bit for bit.
+    ``variance_decides_first`` (``condition_order == VARIANCE_FIRST``) and
+    ``centre_counts`` (``include_centre``) are constants of the compiled code:
+    each variant holds the tight loop of its own case only, and compiles in
+    half the time of one kernel holding all four. :func:`pass_kernel` picks the
+    variant of a call's ``condition_order`` and ``include_centre``.
     """
-    width = plane.shape[1]
-    height = plane.shape[0] if plane_height < 0 else plane_height
-    key = stream_key(seed, plane_index, pass_index)
-    neighbours = np.empty(8, dtype=np.float64)
-    variance_first = condition_order == VARIANCE_FIRST
-    if row_stop < 0:
-        row_stop = height
-    # the pixels of one checkerboard colour are no neighbours of each other:
-    # they can be updated in any order, by several threads, with one result
-    x_first = 0 if colour < 0 else colour & 1
-    x_step = 1 if colour < 0 else 2
-    kept = left = pushed_count = redrawn = exhausted = skipped = 0
-    for y in range(row_start, row_stop):
-        if colour >= 0 and (y & 1) != (colour >> 1):
-            continue
-        reverse = scan == SERPENTINE and (y & 1) == 1
-        interior_row = not has_nonfinite and 0 < y < height - 1
-        x_start = max(x_first, diagonal_start - y)
-        x_stop = width if diagonal_stop < 0 else min(width, diagonal_stop - y)
-        row = y - row_offset  # the row's place in ``plane``
-        if diagonal_stop >= 0 and row + 2 < plane.shape[0]:
-            # a tile: the row below the next one, which that row's segment
-            # (one pixel to the left) reads, is not yet in the cache; its first
-            # lines only: the processor's own prefetcher follows the rest (asking
-            # for every line cost a single tile over the plane ~5 % more time)
-            ahead_stop = min(width, x_stop, x_start - 2 + _AHEAD_LINES * _LINE)
-            for x_ahead in range(max(0, x_start - 2), ahead_stop, _LINE):
-                _prefetch(plane, row + 2, x_ahead)
-        # interior pixels that Eq. 2 keeps (Eq. 4 first: that keeps) run in a
-        # tight loop of their own (_kept_run); the others take the full path
-        fast_row = interior_row and not reverse and colour < 0
-        fast_start, fast_stop = max(x_start, 1), min(x_stop, width - 1)
-        not_kept = -1  # the pixel at which the last run stopped
-        steps = (x_stop - x_start + x_step - 1) // x_step
-        step = -1
-        while step < steps - 1:  # a for loop that a run of kept pixels can advance
-            step += 1
-            x = x_stop - 1 - step if reverse else x_start + step * x_step
-            if fast_row and fast_start <= x < fast_stop and x != not_kept:
-                # one copy of the loop per case: no test of the options inside it
-                if variance_first:
-                    if include_centre:
+
+    @cached_njit(nogil=True)
+    def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone_low,
+                       tone_high, max_tries, seed, plane_index, pass_index, border,
+                       variance_ratio, variance_action, condition_order, on_exhausted, scan,
+                       include_centre,
+                       has_nonfinite, counts, colour=-1, row_start=0, row_stop=-1,
+                       diagonal_start=0, diagonal_stop=-1, changes=None, row_offset=0,
+                       plane_height=-1):  # fmt: skip
+        """Run one pass of the algorithm over ``plane`` in place (Eq. 1-4).
+
+        Parameters
+        ----------
+        plane : (H, W) float32 C-contiguous array
+            Tones on the 0-255 scale; non-finite values never change and never count.
+        mean_threshold, variance_threshold, range_bounds, tone_low, tone_high, max_tries
+            t of Eq. 2, V of Eq. 4, the inner range limits L_sup^1 .. L_sup^(n-1),
+            T_inf^i and T_sup^i of Eq. 3 (float64 arrays), and the draws before giving up.
+        seed, plane_index, pass_index : int
+            Select the random stream (see ``stream_key``).
+        border, variance_ratio, variance_action, condition_order, on_exhausted, scan : int
+            The options' codes, in the order of ``codes.OPTION_CODES``; then
+            ``include_centre`` (bool) and ``has_nonfinite`` (False promises an
+            all-finite plane: interior pixels skip the checks).
+        counts : (6,) int64 array
+            Incremented at the diagnostic codes (``codes.KEPT_BY_MEAN``, ...).
+        colour : int, optional
+            -1: every pixel in the order of ``scan``; 0-3: only the pixels with
+            ``(y % 2, x % 2) == (colour // 2, colour % 2)``, none of them
+            neighbours, so bands of rows of one colour may run on threads at once.
+        row_start, row_stop, diagonal_start, diagonal_stop : int, optional
+            Only the rows ``row_start <= y < row_stop`` and, in a raster or
+            serpentine scan, the pixels with ``diagonal_start <= x + y <
+            diagonal_stop``: a parallelogram tile of the exact-order schedule
+            (``_engine``). A stop of -1 is the end of the plane.
+        changes : (1 + capacity,) int64 array, optional
+            Where the pass notes the pixels it writes: ``changes[0]`` is
+            incremented for every write and the first ``capacity`` writes' flat
+            indices ``y * W + x`` follow it (so that the write-back of a few
+            changes need not visit the whole plane). A pixel written to the
+            tone it had is noted too.
+        row_offset, plane_height : int, optional
+            ``plane`` holds only the rows ``row_offset, row_offset + 1, ...`` of a
+            plane of ``plane_height`` rows (-1: ``plane`` is the whole plane): a
+            band of rows with the rows around it that the pass reads. Rows,
+            random streams and borders are those of the whole plane.
+
+        Notes
+        -----
+        Interior pixels of an all-finite plane that are kept as they are (the
+        common case) run in a tight loop (``_kept_run``), the one of the
+        variant's ``condition_order`` and ``include_centre``; every other pixel takes the
+        full path below it. Both agree with ``_reference.py`` bit for bit.
+        """
+        width = plane.shape[1]
+        height = plane.shape[0] if plane_height < 0 else plane_height
+        key = stream_key(seed, plane_index, pass_index)
+        neighbours = np.empty(8, dtype=np.float64)
+        if row_stop < 0:
+            row_stop = height
+        # the pixels of one checkerboard colour are no neighbours of each other:
+        # they can be updated in any order, by several threads, with one result
+        x_first = 0 if colour < 0 else colour & 1
+        x_step = 1 if colour < 0 else 2
+        kept = left = pushed_count = redrawn = exhausted = skipped = 0
+        for y in range(row_start, row_stop):
+            if colour >= 0 and (y & 1) != (colour >> 1):
+                continue
+            reverse = scan == SERPENTINE and (y & 1) == 1
+            interior_row = not has_nonfinite and 0 < y < height - 1
+            x_start = max(x_first, diagonal_start - y)
+            x_stop = width if diagonal_stop < 0 else min(width, diagonal_stop - y)
+            row = y - row_offset  # the row's place in ``plane``
+            if diagonal_stop >= 0 and row + 2 < plane.shape[0]:
+                # a tile: the row below the next one, which that row's segment
+                # (one pixel to the left) reads, is not yet in the cache; its first
+                # lines only: the processor's own prefetcher follows the rest (asking
+                # for every line cost a single tile over the plane ~5 % more time)
+                ahead_stop = min(width, x_stop, x_start - 2 + _AHEAD_LINES * _LINE)
+                for x_ahead in range(max(0, x_start - 2), ahead_stop, _LINE):
+                    _prefetch(plane, row + 2, x_ahead)
+            # interior pixels that Eq. 2 keeps (Eq. 4 first: that keeps) run in a
+            # tight loop of their own (_kept_run); the others take the full path
+            fast_row = interior_row and not reverse and colour < 0
+            fast_start, fast_stop = max(x_start, 1), min(x_stop, width - 1)
+            not_kept = -1  # the pixel at which the last run stopped
+            steps = (x_stop - x_start + x_step - 1) // x_step
+            step = -1
+            while step < steps - 1:  # a for loop that a run of kept pixels can advance
+                step += 1
+                x = x_stop - 1 - step if reverse else x_start + step * x_step
+                if fast_row and fast_start <= x < fast_stop and x != not_kept:
+                    # the loop of this variant's case (the other branches fold away):
+                    # no test of the options inside it
+                    if variance_decides_first:
+                        if centre_counts:
+                            x_next = _kept_run(
+                                plane, row, x, fast_stop, mean_threshold, variance_threshold,
+                                True, variance_ratio, True,
+                            )  # fmt: skip
+                        else:
+                            x_next = _kept_run(
+                                plane, row, x, fast_stop, mean_threshold, variance_threshold,
+                                True, variance_ratio, False,
+                            )  # fmt: skip
+                    elif centre_counts:
                         x_next = _kept_run(
                             plane, row, x, fast_stop, mean_threshold, variance_threshold,
-                            True, variance_ratio, True,
+                            False, variance_ratio, True,
                         )  # fmt: skip
                     else:
                         x_next = _kept_run(
                             plane, row, x, fast_stop, mean_threshold, variance_threshold,
-                            True, variance_ratio, False,
+                            False, variance_ratio, False,
                         )  # fmt: skip
-                elif include_centre:
-                    x_next = _kept_run(
-                        plane, row, x, fast_stop, mean_threshold, variance_threshold,
-                        False, variance_ratio, True,
-                    )  # fmt: skip
-                else:
-                    x_next = _kept_run(
-                        plane, row, x, fast_stop, mean_threshold, variance_threshold,
-                        False, variance_ratio, False,
-                    )  # fmt: skip
-                if x_next > x:
-                    kept += x_next - x
-                    step += x_next - x - 1
-                    not_kept = x_next
-                    continue
-            g = np.float64(plane[row, x])
-            if not math.isfinite(g):
-                skipped += 1
-                continue
-            # Eq. 1 over the 8 nearest and next-nearest neighbours: interior
-            # pixels of an all-finite plane (the common, speed-critical case)
-            # read them straight from the plane, the others gather them.
-            interior = interior_row and 0 < x < width - 1
-            if interior:
-                count, neighbour_sum = 8, _interior_sum(plane, row, x)
-            else:
-                count, neighbour_sum = _gather(plane, y, x, border, neighbours, height, row_offset)
-                if count == 0:
+                    if x_next > x:
+                        kept += x_next - x
+                        step += x_next - x - 1
+                        not_kept = x_next
+                        continue
+                g = np.float64(plane[row, x])
+                if not math.isfinite(g):
                     skipped += 1
                     continue
-            n = count + 1 if include_centre else count
-            if include_centre:
-                mean = (neighbour_sum + g) / n
-            elif interior:  # n = 8: the same float64 as a division by 8, a power of two
-                mean = neighbour_sum * 0.125
-            else:
-                mean = neighbour_sum / n
-
-            # Eq. 2 decides first unless the order is variance-first.
-            mean_ratio = _ratio(abs(g - mean), mean)
-            if mean_ratio <= mean_threshold and not variance_first:
-                kept += 1
-                continue
-
-            # Eq. 4: the variance condition.
-            if interior:
-                squares = _interior_squares(plane, row, x, mean)
-            else:
-                squares = _gathered_squares(neighbours, count, mean)
-            if include_centre:
-                squares += (g - mean) * (g - mean)
-            if interior and not include_centre:
-                variance = squares * 0.125
-                spread = math.sqrt(
-                    variance * 0.125 if variance_ratio == SQRT_V_OVER_N else variance
-                )
-            else:
-                variance = squares / n
-                spread = math.sqrt(variance / n if variance_ratio == SQRT_V_OVER_N else variance)
-            if _ratio(spread, mean) > variance_threshold:
-                if variance_action == LEAVE:
-                    left += 1
-                    continue
-                pushed, draw = _push(
-                    g, mean, mean_ratio, neighbour_sum, n, include_centre,
-                    _mix(key ^ np.uint64(y * width + x)), variance_action,
-                    range_bounds, tone_low, tone_high, max_tries,
-                )  # fmt: skip
-                if pushed:
-                    plane[row, x] = draw
-                    _note_written(changes, y * width + x)
-                    pushed_count += 1
+                # Eq. 1 over the 8 nearest and next-nearest neighbours: interior
+                # pixels of an all-finite plane (the common, speed-critical case)
+                # read them straight from the plane, the others gather them.
+                interior = interior_row and 0 < x < width - 1
+                if interior:
+                    count, neighbour_sum = 8, _interior_sum(plane, row, x)
                 else:
-                    left += 1
-                continue
-            if mean_ratio <= mean_threshold:
-                kept += 1
-                continue
+                    count, neighbour_sum = _gather(
+                        plane, y, x, border, neighbours, height, row_offset
+                    )
+                    if count == 0:
+                        skipped += 1
+                        continue
+                n = count + 1 if centre_counts else count
+                if centre_counts:
+                    mean = (neighbour_sum + g) / n
+                elif interior:  # n = 8: the same float64 as a division by 8, a power of two
+                    mean = neighbour_sum * 0.125
+                else:
+                    mean = neighbour_sum / n
 
-            # Eq. 3: draws in the tone range of g until one satisfies Eq. 2.
-            accepted, draw = _redraw(
-                g, mean, mean_threshold, neighbour_sum, n, include_centre,
-                _mix(key ^ np.uint64(y * width + x)), range_bounds, tone_low, tone_high, max_tries,
-            )  # fmt: skip
-            if accepted:
-                plane[row, x] = draw
-                _note_written(changes, y * width + x)
-                redrawn += 1
-            else:
-                exhausted += 1
-                if on_exhausted != KEEP and max_tries > 0:
+                # Eq. 2 decides first unless the order is variance-first.
+                mean_ratio = _ratio(abs(g - mean), mean)
+                if mean_ratio <= mean_threshold and not variance_decides_first:
+                    kept += 1
+                    continue
+
+                # Eq. 4: the variance condition.
+                if interior:
+                    squares = _interior_squares(plane, row, x, mean)
+                else:
+                    squares = _gathered_squares(neighbours, count, mean)
+                if centre_counts:
+                    squares += (g - mean) * (g - mean)
+                if interior and not centre_counts:
+                    variance = squares * 0.125
+                    spread = math.sqrt(
+                        variance * 0.125 if variance_ratio == SQRT_V_OVER_N else variance
+                    )
+                else:
+                    variance = squares / n
+                    spread = math.sqrt(
+                        variance / n if variance_ratio == SQRT_V_OVER_N else variance
+                    )
+                if _ratio(spread, mean) > variance_threshold:
+                    if variance_action == LEAVE:
+                        left += 1
+                        continue
+                    pushed, draw = _push(
+                        g, mean, mean_ratio, neighbour_sum, n, centre_counts,
+                        _mix(key ^ np.uint64(y * width + x)), variance_action,
+                        range_bounds, tone_low, tone_high, max_tries,
+                    )  # fmt: skip
+                    if pushed:
+                        plane[row, x] = draw
+                        _note_written(changes, y * width + x)
+                        pushed_count += 1
+                    else:
+                        left += 1
+                    continue
+                if mean_ratio <= mean_threshold:
+                    kept += 1
+                    continue
+
+                # Eq. 3: draws in the tone range of g until one satisfies Eq. 2.
+                accepted, draw = _redraw(
+                    g, mean, mean_threshold, neighbour_sum, n, centre_counts,
+                    _mix(key ^ np.uint64(y * width + x)), range_bounds, tone_low, tone_high,
+                    max_tries,
+                )  # fmt: skip
+                if accepted:
                     plane[row, x] = draw
                     _note_written(changes, y * width + x)
-    counts[KEPT_BY_MEAN] += kept
-    counts[LEFT_BY_VARIANCE] += left
-    counts[PUSHED] += pushed_count
-    counts[REDRAWN] += redrawn
-    counts[OUT_OF_TRIES] += exhausted
-    counts[SKIPPED] += skipped
+                    redrawn += 1
+                else:
+                    exhausted += 1
+                    if on_exhausted != KEEP and max_tries > 0:
+                        plane[row, x] = draw
+                        _note_written(changes, y * width + x)
+        counts[KEPT_BY_MEAN] += kept
+        counts[LEFT_BY_VARIANCE] += left
+        counts[PUSHED] += pushed_count
+        counts[REDRAWN] += redrawn
+        counts[OUT_OF_TRIES] += exhausted
+        counts[SKIPPED] += skipped
+
+    return labyrinth_pass
+
+
+#: The kernel's variants, indexed by ``variant_index``.
+PASS_VARIANTS = tuple(
+    _labyrinth_pass_variant(variance_decides_first, centre_counts)
+    for variance_decides_first in (False, True)
+    for centre_counts in (False, True)
+)
+
+
+def variant_index(condition_order: int, include_centre: bool) -> int:
+    """The index in ``PASS_VARIANTS`` of the kernel for ``condition_order`` and
+    ``include_centre``."""
+    return 2 * int(condition_order == VARIANCE_FIRST) + int(bool(include_centre))
+
+
+def pass_kernel(condition_order: int, include_centre: bool):
+    """The numba kernel of one pass (``labyrinth_pass``) for ``condition_order`` and
+    ``include_centre``, which the kernel's own arguments must repeat."""
+    return PASS_VARIANTS[variant_index(condition_order, include_centre)]
