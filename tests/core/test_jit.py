@@ -1,5 +1,9 @@
 """The kernels' decorator: cached on disk where possible, compiled in memory elsewhere."""
 
+import importlib.util
+import os
+import subprocess
+import sys
 import warnings
 
 import pytest
@@ -33,3 +37,69 @@ def test_a_function_in_a_file_is_cached_without_warning(fresh_warning):
         warnings.simplefilter("error")
         dispatcher = _jit.cached_njit()(_jit._warn_once)
     assert dispatcher._cache.__class__.__name__ == "FunctionCache"
+
+
+def _new_kernel(tmp_path, name):
+    """A kernel of its own module file (numba caches only functions of a file)."""
+    module = tmp_path / f"{name}.py"
+    module.write_text(
+        "from napari_labyrinth.core._jit import cached_njit\n\n"
+        "@cached_njit()\n"
+        f"def {name}(x):\n    return x * 2\n"
+    )
+    spec = importlib.util.spec_from_file_location(name, module)
+    loaded = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(loaded)
+    return getattr(loaded, name)
+
+
+def test_is_compiled_says_whether_a_call_would_compile(tmp_path):
+    kernel = _new_kernel(tmp_path, "doubled")
+    assert not _jit.is_compiled(kernel, 3)
+    assert kernel(3) == 6
+    assert _jit.is_compiled(kernel, 4)
+    assert not _jit.is_compiled(kernel, 4.5)  # another signature
+
+
+def test_is_compiled_loads_a_kernel_from_the_disk_cache(tmp_path):
+    script = (
+        f"import sys; sys.path.insert(0, {str(tmp_path)!r})\n"
+        "import twice as module\n"
+        "from napari_labyrinth.core._jit import is_compiled\n"
+        "ready = is_compiled(module.twice, 1)\n"
+        "print(ready, module.twice(2), len(module.twice.overloads))\n"
+    )
+    (tmp_path / "twice.py").write_text(
+        "from napari_labyrinth.core._jit import cached_njit\n\n"
+        "@cached_njit()\ndef twice(x):\n    return x * 2\n"
+    )
+    environment = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    outputs = []
+    for _ in range(2):
+        done = subprocess.run(
+            [sys.executable, "-c", script], capture_output=True, text=True, env=environment
+        )
+        assert done.returncode == 0, done.stderr
+        outputs.append(done.stdout.split())
+    assert outputs == [["False", "4", "1"], ["True", "4", "1"]]
+
+
+def test_compiling_names_the_kernel_numba_compiles_now(tmp_path):
+    from numba.core import event
+
+    _jit.watch_compiles()
+    seen = []
+
+    class Looker(event.Listener):
+        def on_start(self, ev):
+            seen.append(_jit.compiling())
+
+        def on_end(self, ev):
+            pass
+
+    kernel = _new_kernel(tmp_path, "tripled")
+    assert _jit.compiling() is None
+    with event.install_listener("numba:compile", Looker()):
+        kernel(1)
+    assert seen and set(seen) == {"tripled"}
+    assert _jit.compiling() is None

@@ -258,3 +258,31 @@ def test_sampled_ranks_are_the_sorted_values(dtype, size, seed, noise, q, spots)
     if got is not None:
         assert got == [int(v) for v in np.sort(values)[ranks]]
     assert_numpy_percentiles(values, q)
+
+
+from napari_labyrinth.core import percentiles as percentiles_module  # noqa: E402
+from napari_labyrinth.core.tone_scale import DEFAULT_PERCENTILES, default_percentiles  # noqa: E402
+
+
+@pytest.mark.parametrize("pays", [False, True])
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16])
+def test_the_default_tone_limits_are_numpys_whether_or_not_counting_pays(monkeypatch, pays, dtype):
+    # counting only once its kernel is compiled (or the image is large), np.percentile else
+    values = np.random.default_rng(5).integers(-300, 3000, (300, 200)).clip(0, 255)
+    values = values.astype(dtype)
+    import napari_labyrinth.core._jit as jit
+
+    monkeypatch.setattr(jit, "is_compiled", lambda *args: pays)
+    assert percentiles_module.counting_pays(values) is pays
+    assert default_percentiles(values) == [
+        float(v) for v in np.percentile(values, DEFAULT_PERCENTILES)
+    ]
+
+
+def test_counting_pays_on_an_image_too_large_to_wait_on_numpy(monkeypatch):
+    import napari_labyrinth.core._jit as jit
+
+    monkeypatch.setattr(jit, "is_compiled", lambda *args: False)
+    large = np.zeros(percentiles_module.COMPILE_FROM_VALUES, np.uint8)
+    assert percentiles_module.counting_pays(large)
+    assert not percentiles_module.counting_pays(large[1:])

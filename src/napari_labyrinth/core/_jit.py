@@ -10,6 +10,7 @@ instead (every new process compiles again) and says so once.
 
 from __future__ import annotations
 
+import threading
 import warnings
 
 from numba import njit
@@ -64,3 +65,66 @@ def _warn_once() -> None:
         UncachedKernelWarning,
         stacklevel=4,
     )
+
+
+def is_compiled(dispatcher, *arguments) -> bool:
+    """Whether ``dispatcher(*arguments)`` runs at once, without compiling: its code for
+    these argument types is compiled in this process or in numba's disk cache (then
+    loaded, as the call would).
+
+    A call that can take another route to the same result (one that compiles
+    nothing) takes it while this is False: only the kernels a call needs compile.
+    """
+    from numba.core.compiler_lock import global_compiler_lock
+
+    try:
+        signature = tuple(dispatcher.typeof_pyval(argument) for argument in arguments)
+        if signature in dispatcher.overloads:
+            return True
+        with global_compiler_lock:  # numba's Dispatcher.compile, up to its cache's answer
+            result = dispatcher._cache.load_overload(signature, dispatcher.targetctx)
+            if result is None:
+                return False
+            dispatcher.targetctx.insert_user_function(
+                result.entry_point, result.fndesc, [result.library]
+            )
+            dispatcher.add_overload(result)
+    except (AttributeError, TypeError):  # a numba whose dispatchers differ: say not compiled
+        return False
+    return True
+
+
+_compiling: list[str] = []
+_compiling_lock = threading.Lock()
+_listener = None
+
+
+def watch_compiles() -> None:
+    """Start noting the kernels numba compiles in this process (for :func:`compiling`)."""
+    global _listener
+    if _listener is not None:
+        return
+    from numba.core import event
+
+    class _Watcher(event.Listener):
+        def on_start(self, ev):
+            with _compiling_lock:
+                _compiling.append(ev.data["dispatcher"].py_func.__name__)
+
+        def on_end(self, ev):
+            with _compiling_lock:
+                _compiling.pop()
+
+    _listener = _Watcher()
+    event.register("numba:compile", _listener)
+
+
+def compiling() -> str | None:
+    """The kernel numba is compiling in this process now (the outermost), or None.
+
+    Only once :func:`watch_compiles` was called: a run's first call of a
+    kernel after an install waits seconds on its compile, which a front end
+    can say.
+    """
+    with _compiling_lock:
+        return _compiling[0] if _compiling else None

@@ -379,7 +379,8 @@ def sampled_tail_values(flat, offset, shift, bins, ranks, values, spots):
             if r < under_start or r >= n - high[-1]:
                 return False
             found[i] = np.searchsorted(high_cumulative, r - under_start, side="right") + start
-    values[:] = found
+    for i in range(ranks.shape[0]):  # an array assignment would compile numba's shape checks
+        values[i] = found[i]
     return True
 
 
@@ -391,7 +392,7 @@ _WIDEST_WINDOW = 1 << 14
 _GUARD_BLOCKS = 256
 
 
-@njit(inline="always")
+@njit
 def _sample_position(rank, n, sampled, side):
     """The position in the sorted sample of the value of ``rank`` among ``n``, moved
     towards ``side`` (-1 down, 1 up) by a margin of the sample's error (its values
@@ -402,7 +403,7 @@ def _sample_position(rank, n, sampled, side):
     return expected + side * margin
 
 
-@njit(inline="always")
+@njit
 def _narrowed(first, last, bin_start, shift):
     """The window ``[first, last)`` cut to ``_WIDEST_WINDOW`` values around the coarse bin
     that starts at ``bin_start`` (where the sample places a rank's value)."""
@@ -412,7 +413,7 @@ def _narrowed(first, last, bin_start, shift):
     return max(first, last - _WIDEST_WINDOW), last
 
 
-@njit(inline="always")
+@njit
 def _bin_edge(below, position, offset, shift):
     """The least value of the coarse bin that holds ``position`` of the sorted sample
     (``below[k]`` sampled values lie in the bins before k); beyond the sample, the

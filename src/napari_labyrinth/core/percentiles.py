@@ -106,6 +106,29 @@ def integer_percentiles(values: np.ndarray, q: Sequence[float]) -> list[float]:
     return ranked_percentiles([int(v) for v in ranked], gammas, dtype)
 
 
+#: Values from which ``counting_pays`` compiles the counting kernels for a call: above it,
+#: numpy's partition of a copy of the values costs more than a fraction of a second.
+COMPILE_FROM_VALUES = 1 << 23
+
+
+def counting_pays(values: np.ndarray) -> bool:
+    """Whether :func:`integer_percentiles` is the route for the 8- or 16-bit ``values``.
+
+    It is where its counting kernel is compiled (in this process or in numba's
+    disk cache) or the values are so many that its compile pays within the
+    call; else ``np.percentile`` gives the same floats at once, where the first
+    count would wait seconds on numba.
+    """
+    if values.size >= COMPILE_FROM_VALUES:
+        return True
+    from ._jit import is_compiled
+    from ._tone_loops import sampled_tail_values  # numba is imported on first use only
+
+    flat = values.reshape(-1)
+    ranks = np.zeros(2, np.int64)
+    return is_compiled(sampled_tail_values, flat, 0, 0, 1, ranks, ranks, SAMPLE_SPOTS)
+
+
 def ranked_percentiles(ranked: Sequence[int], gammas: np.ndarray, dtype) -> list[float]:
     """:func:`lerp` of the values ``ranked`` (previous, next for each percentile) of
     integers of ``dtype``, as a list of floats.

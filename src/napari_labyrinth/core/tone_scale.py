@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from .parameters import as_float, scalar
-from .percentiles import integer_percentiles
+from .percentiles import counting_pays, integer_percentiles
 
 #: Percentiles of the finite values that set the default tone limits of
 #: every dtype but uint8 (robust to a few hot or dead pixels).
@@ -195,9 +195,11 @@ def default_percentiles(values: np.ndarray) -> list[float]:
     """The ``DEFAULT_PERCENTILES`` of ``values`` (finite, at least one), as ``np.percentile``.
 
     8- and 16-bit integers are counted (one pass, no copy of the image) and
-    give numpy's floats bit for bit; other dtypes go through ``np.percentile``.
+    give numpy's floats bit for bit, once the counting kernel is compiled or
+    where the image is large (``counting_pays``); other dtypes and other
+    integer images go through ``np.percentile``.
     """
-    if values.dtype.kind in "iu" and values.dtype.itemsize <= 2:
+    if values.dtype.kind in "iu" and values.dtype.itemsize <= 2 and counting_pays(values):
         return integer_percentiles(values, DEFAULT_PERCENTILES)
     return [float(v) for v in np.percentile(values, DEFAULT_PERCENTILES)]
 
