@@ -3,28 +3,37 @@
 import subprocess
 import sys
 
+import pytest
+
 from napari_labyrinth import _warmup
 
 
-def test_the_warm_up_runs_as_a_module_and_exits_cleanly():
+def test_the_warm_up_runs_as_a_module_says_its_steps_and_exits_cleanly():
     done = subprocess.run(
-        [sys.executable, "-m", "napari_labyrinth._warmup"],
+        _warmup.command("--dtype", "uint8"),
         capture_output=True,
         text=True,
         timeout=600,
         check=False,
     )
     assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert [line for line in lines if line.startswith("step ")] == [
+        "step 1 of 2: the render of uint8 images",
+        "step 2 of 2: the metrics of a stack",
+    ]
+    assert lines[-1] == "done"
 
 
-def test_it_starts_once_per_session_and_not_when_disabled(monkeypatch):
-    started = []
-    monkeypatch.setattr(_warmup.subprocess, "Popen", lambda *a, **k: started.append(a))
-    monkeypatch.setattr(_warmup, "_started", False)
+@pytest.mark.parametrize("dtype", ["uint8", "uint16", "float32"])
+def test_its_steps_render_and_measure_an_image_of_the_dtype(dtype):
+    steps = _warmup.warm_up_steps(dtype)
+    for _, step in steps:
+        step()
+
+
+def test_it_is_disabled_by_its_variable(monkeypatch):
+    monkeypatch.delenv(_warmup.DISABLE_VARIABLE, raising=False)
+    assert not _warmup.disabled()
     monkeypatch.setenv(_warmup.DISABLE_VARIABLE, "1")
-    _warmup.start_in_background()
-    assert started == []
-    monkeypatch.delenv(_warmup.DISABLE_VARIABLE)
-    _warmup.start_in_background()
-    _warmup.start_in_background()
-    assert len(started) == 1 and started[0][0][1:] == ["-m", "napari_labyrinth._warmup"]
+    assert _warmup.disabled()

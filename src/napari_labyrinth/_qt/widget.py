@@ -32,7 +32,8 @@ from qtpy.QtCore import Qt, QTimer
 from qtpy.QtWidgets import QProgressBar, QScrollArea, QVBoxLayout, QWidget
 from superqt import QCollapsible
 
-from .._warmup import start_in_background
+from .._warmup import DEFAULT_DTYPE
+from ..core._jit import compiling, watch_compiles
 from ..core.presets import DEFAULT_PRESET
 from ..plan import MODES, SWEEP_PARAMETERS, Choices, RenderPlan, default_sweep_text, make_plan
 from ..run import Failure, Outcome
@@ -46,12 +47,15 @@ from .metrics_plot import MetricsPlot
 from .metrics_table import MetricsTable
 from .preview import Preview
 from .sweep_label import SweepLabel
+from .warm_up import PREPARING, WarmUp
 from .worker import NEXT_TURN_MS, main_window, render_worker, show_result, stop
 
 __all__ = ["LabyrinthWidget"]
 
 #: Least seconds between two updates of the progress bar.
 PROGRESS_INTERVAL = 0.2
+#: Milliseconds between two looks at whether numba compiles a kernel for the run.
+COMPILE_WATCH_MS = 250
 #: The clock of those updates.
 _clock = time.monotonic
 
@@ -121,6 +125,8 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self._outcome_received = False
         self._outcome: Outcome | Failure | None = None
         self._showing = None  # the steps of showing a result (show_result), while they last
+        self._waiting = None  # a worker started once the warm-up has ended
+        self._rendering = ""  # the status of the run: what it renders
         self._compare = CompareView(napari_viewer)
 
         self.inputs = InputSection(napari_viewer)
@@ -171,7 +177,13 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self.viewer.dims.events.current_step.connect(self._on_step)
         layer_events.removed.connect(self._on_layer_removed)
         LabyrinthWidget.instances.add(self)
-        start_in_background()  # numba's first compile, out of this process
+        # numba's first compiles out of this process; what a run compiles itself is said
+        watch_compiles()
+        self._compile_watch = QTimer(self)
+        self._compile_watch.setInterval(COMPILE_WATCH_MS)
+        self._compile_watch.timeout.connect(self._say_compiling)
+        self.warm_up = WarmUp(self._on_warm_up_line, self._on_warm_up_end, self)
+        self.warm_up.start(self._warm_up_dtype())
 
     # -- construction ------------------------------------------------------------------------
 
@@ -406,8 +418,13 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self.progress_bar.setValue(0)
         self._progress_shown = _clock()
         self.progress_bar.setVisible(True)
-        self.status.value = f"Rendering {plan.description} …"
-        if start:
+        self._rendering = f"Rendering {plan.description} …"
+        self.status.value = self._rendering
+        self._compile_watch.start()
+        if start and self.warm_up.running:  # its kernels are this run's: wait for them
+            self._waiting = worker
+            self.status.value = f"{PREPARING} ({self.warm_up.step or 'starting'}) …"
+        elif start:
             worker.start()
         return worker
 
@@ -417,6 +434,11 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
 
     def _cancel_because(self, reason: str) -> None:
         if self.worker is None or self._plan is None:
+            return
+        if self._waiting is not None:  # not started: nothing will finish
+            self._waiting = None
+            self._cancel_reason = reason
+            self._settle()
             return
         stop(self.worker, self._plan)
         self._cancel_reason = reason
@@ -530,6 +552,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
 
     def _settle(self) -> None:
         """The run is over: buttons, progress bar and status show it."""
+        self._compile_watch.stop()
         cancelled = self._plan is not None and not self._outcome_received
         release, self._release_collections = self._release_collections, _nothing
         self.worker = None
@@ -548,6 +571,47 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             self.status.value = f"Cancelled: {self._cancel_reason or 'no layer added'}"
         self._cancel_reason = ""
 
+    # -- kernels -----------------------------------------------------------------------------
+
+    def _warm_up_dtype(self) -> str:
+        """The dtype of the selected image layer's data, which the warm-up prepares."""
+        layer = self.image_layer.value
+        data = getattr(layer, "data", None)
+        if getattr(layer, "multiscale", False):
+            data = data[0]
+        dtype = getattr(data, "dtype", None)
+        if dtype is None or dtype.kind not in "uif" or getattr(layer, "rgb", False):
+            return DEFAULT_DTYPE
+        return str(dtype)
+
+    def _on_warm_up_line(self, line: str) -> None:
+        if self._waiting is not None and not self._closed:
+            if line.startswith("kernel "):
+                detail = f"{self.warm_up.step}: {line.split(' ', 1)[1]}"
+            else:
+                detail = line
+            self.status.value = f"{PREPARING} ({detail}) …"
+
+    def _on_warm_up_end(self) -> None:
+        worker, self._waiting = self._waiting, None
+        if worker is not None and not self._closed:
+            self.status.value = self._rendering
+            worker.start()
+
+    def _say_compiling(self) -> None:
+        """While the run waits on numba compiling a kernel in this process, say so."""
+        if self._waiting is not None or self._closed or self.worker is None:
+            return
+        kernel = compiling()
+        if kernel is not None:
+            text = f"{PREPARING} (compiling {kernel}) …"
+        elif self.status.value.startswith(PREPARING):
+            text = self._rendering
+        else:
+            return
+        if self.status.value != text:
+            self.status.value = text
+
     # -- lifecycle ---------------------------------------------------------------------------
 
     def _on_layer_removed(self, event) -> None:
@@ -565,6 +629,8 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         # deleted widget): its hold on full collections ends now
         release, self._release_collections = self._release_collections, _nothing
         release()
+        self.warm_up.stop()
+        self._compile_watch.stop()
         self.preview.close()
         self.auto_window.close()
         self.sweep_label.disconnect()

@@ -1,0 +1,91 @@
+"""The warm-up process of a viewer: numba's kernels compiled out of napari's process.
+
+:class:`WarmUp` runs ``python -m napari_labyrinth._warmup`` in a
+:class:`~qtpy.QtCore.QProcess` as the widget opens, reads the steps it
+prints (the widget shows them while a run waits for it) and ends it when the
+widget closes with its dock or viewer. One warm-up is started per session:
+it fills numba's disk cache, which every later widget and run loads.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from qtpy.QtCore import QObject, QProcess
+
+from .. import _warmup
+
+#: What the widget says while the kernels compile: once after an install.
+PREPARING = "Preparing the kernels for this machine, once after an install"
+
+_started = False
+
+
+class WarmUp(QObject):
+    """The warm-up process, if this widget started one.
+
+    Parameters
+    ----------
+    on_line : callable
+        Called with each line the process prints (``step K of N: what``,
+        ``kernel NAME``, ``done``).
+    on_end : callable
+        Called once the process has ended, however it ended.
+    parent : QObject
+        Owner of the process: the process ends with it.
+    """
+
+    def __init__(self, on_line: Callable[[str], None], on_end: Callable[[], None], parent=None):
+        super().__init__(parent)
+        self._on_line = on_line
+        self._on_end = on_end
+        self._process: QProcess | None = None
+        self.step = ""
+
+    @property
+    def running(self) -> bool:
+        """Whether the process is still compiling."""
+        return self._process is not None and self._process.state() != QProcess.NotRunning
+
+    def start(self, dtype: str) -> bool:
+        """Start the warm-up for images of ``dtype`` unless one was started this session
+        or warm-ups are disabled (``_warmup.DISABLE_VARIABLE``); whether it started."""
+        global _started
+        if _started or _warmup.disabled():
+            return False
+        _started = True
+        program, *arguments = _warmup.command("--dtype", dtype)
+        process = QProcess(self)
+        process.setProcessChannelMode(QProcess.SeparateChannels)
+        process.readyReadStandardOutput.connect(self._read)
+        process.finished.connect(self._ended)
+        process.errorOccurred.connect(self._failed)
+        self._process = process
+        process.start(program, arguments)
+        return True
+
+    def stop(self) -> None:
+        """End the process now (the widget is closing)."""
+        process, self._process = self._process, None
+        if process is not None and process.state() != QProcess.NotRunning:
+            process.finished.disconnect(self._ended)
+            process.kill()
+            process.waitForFinished(1000)
+
+    def _read(self) -> None:
+        if self._process is None:
+            return
+        text = bytes(self._process.readAllStandardOutput()).decode(errors="replace")
+        for line in text.splitlines():
+            if line.startswith("step "):
+                self.step = line.split(": ", 1)[-1]
+            self._on_line(line)
+
+    def _ended(self, *_args) -> None:
+        self._read()
+        self._process = None
+        self._on_end()
+
+    def _failed(self, error) -> None:
+        if error == QProcess.FailedToStart:  # no interpreter to start: runs compile in process
+            self._ended()
