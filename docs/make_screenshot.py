@@ -7,7 +7,9 @@ a sample of the plugin and, in a fresh viewer for each picture:
 - ``stack``: renders every pass in stack mode with the metrics, zooms in on
   the pattern -> ``docs/screenshot.png`` (the README's picture);
 - ``auto``: presses Auto beside V -> ``docs/screenshot-auto.png``;
-- ``sweep``: renders a sweep of V -> ``docs/screenshot-sweep.png``.
+- ``sweep``: renders a sweep of V -> ``docs/screenshot-sweep.png``;
+- ``preparing``: with an empty numba cache, presses Run as the widget opens,
+  while its warm-up compiles the kernels -> ``docs/screenshot-preparing.png``.
 
 For each it prints the layout checks a reader would otherwise judge by eye
 (the metrics table needs no horizontal scrollbar, the plots' texts are clear
@@ -34,6 +36,7 @@ SHOTS = {
     "stack": "screenshot.png",
     "auto": "screenshot-auto.png",
     "sweep": "screenshot-sweep.png",
+    "preparing": "screenshot-preparing.png",
 }
 #: Longest wait for a run or a search, in seconds.
 TIMEOUT = 600
@@ -64,6 +67,8 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("XDG_CONFIG_HOME", os.path.join(scratch, "config"))
     os.environ.setdefault("XDG_CACHE_HOME", os.path.join(scratch, "cache"))
 
+    if "preparing" in args.shots:  # a cache of its own, empty: as after an install
+        os.environ["NUMBA_CACHE_DIR"] = os.path.join(scratch, "numba")
     failed = 0
     for shot in args.shots:
         failed += not make_shot(shot, args, args.output_dir / SHOTS[shot])
@@ -84,6 +89,8 @@ def make_shot(shot: str, args, output: Path) -> bool:
             "napari-labyrinth", "Labyrinthine tiling"
         )
         widget.image_layer.value = source
+        if shot == "preparing":
+            return _preparing_shot(viewer, widget, app, output)
         if shot == "auto":
             worker = widget.auto_window.find()
             busy = lambda: widget.auto_window.worker is not None  # noqa: E731
@@ -125,6 +132,30 @@ def make_shot(shot: str, args, output: Path) -> bool:
             app.processEvents()
         viewer.close()
         app.processEvents()
+
+
+def _preparing_shot(viewer, widget, app, output: Path) -> bool:
+    """Run pressed as the widget opens: the picture of the wait for the warm-up."""
+    from napari_labyrinth._qt.warm_up import PREPARING
+
+    if widget.run() is None:
+        print(f"preparing: did not start: {widget.status.value}", file=sys.stderr)
+        return False
+    deadline = time.monotonic() + 15
+    while time.monotonic() < deadline and "compiling" not in widget.status.value:
+        app.processEvents()
+        time.sleep(0.02)
+    if not widget.status.value.startswith(PREPARING):
+        print(f"preparing: the run did not wait: {widget.status.value}", file=sys.stderr)
+        return False
+    for _ in range(10):
+        app.processEvents()
+        time.sleep(0.05)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    viewer.screenshot(str(output), canvas_only=False, flash=False)
+    print(f"preparing: wrote {output}: {widget.status.value}")
+    widget.cancel()
+    return True
 
 
 def layout_checks(widget) -> list[str]:

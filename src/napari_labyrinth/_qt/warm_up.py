@@ -77,8 +77,8 @@ class WarmUp(QObject):
             return
         text = bytes(self._process.readAllStandardOutput()).decode(errors="replace")
         for line in text.splitlines():
-            if line.startswith("step "):
-                self.step = line.split(": ", 1)[-1]
+            if line.startswith("step "):  # step K of N: what
+                self.step = line.replace(": ", ", ", 1)
             self._on_line(line)
 
     def _ended(self, *_args) -> None:

@@ -423,6 +423,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self._compile_watch.start()
         if start and self.warm_up.running:  # its kernels are this run's: wait for them
             self._waiting = worker
+            self.progress_bar.setRange(0, 0)  # busy: the warm-up says no fraction done
             self.status.value = f"{PREPARING} ({self.warm_up.step or 'starting'}) …"
         elif start:
             worker.start()
@@ -587,7 +588,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
     def _on_warm_up_line(self, line: str) -> None:
         if self._waiting is not None and not self._closed:
             if line.startswith("kernel "):
-                detail = f"{self.warm_up.step}: {line.split(' ', 1)[1]}"
+                detail = f"{self.warm_up.step}: compiling {line.split(' ', 1)[1]}"
             else:
                 detail = line
             self.status.value = f"{PREPARING} ({detail}) …"
@@ -595,6 +596,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
     def _on_warm_up_end(self) -> None:
         worker, self._waiting = self._waiting, None
         if worker is not None and not self._closed:
+            self.progress_bar.setRange(0, self._plan.total_steps)
             self.status.value = self._rendering
             worker.start()
 
