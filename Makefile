@@ -114,11 +114,11 @@ test-install: $(VENV)/.installed-test
 # PyQt5, PyQt6 and PySide6, the oldest napari with numpy 1.26 (noxfile.py), then the install
 # test. Not part of make test. One session: make test-matrix NOX_ARGS="-s napari-latest-pyside6".
 NOX_ARGS ?=
-# What the xcb platform plugins of Qt 5 and Qt 6 link (ldd); PyQt5's libxcb-xinerama0 is the
-# one Debian's base image lacks beyond APT_PACKAGES.
+# What the xcb platform plugins of Qt 5 and Qt 6 link (ldd of PyQt5, PyQt6 and PySide6);
+# the base image lacks only PyQt5's libxcb-xinerama0 beyond APT_PACKAGES.
 QT_APT_PACKAGES := libxcb-xinerama0 libxcb-cursor0 libxcb-image0 libxcb-randr0 \
 	libxcb-render-util0 libxcb-shape0 libxcb-sync1 libxcb-xfixes0 libxcb-xkb1 libx11-xcb1 \
-	libxkbcommon-x11-0 libfontconfig1 libdbus-1-3 libglib2.0-0 libgl1 libegl1
+	libxcb-dri3-0 libxkbcommon-x11-0 libfontconfig1 libdbus-1-3 libglib2.0-0 libgl1 libegl1
 MATRIX_SUMMARY := build/nox/summary
 
 .PHONY: test-matrix
