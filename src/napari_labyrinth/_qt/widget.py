@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import time
-import weakref
 from typing import Any
 
 from magicgui.widgets import (
@@ -108,8 +107,6 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         The layer the last run added.
     """
 
-    #: Every widget alive: the Layers ▸ Filter commands find a viewer's widget here.
-    instances: weakref.WeakSet[LabyrinthWidget] = weakref.WeakSet()
     #: Whether a run's progress also shows in napari's activity panel. Off: while any
     #: progress is active napari animates an indicator in its status bar that repaints the
     #: whole window about 30 times a second; under software OpenGL (Xvfb, remote
@@ -176,7 +173,6 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self.image_layer.changed.connect(self._forget_metrics)
         self.viewer.dims.events.current_step.connect(self._on_step)
         layer_events.removed.connect(self._on_layer_removed)
-        LabyrinthWidget.instances.add(self)
         # numba's first compiles out of this process; what a run compiles itself is said
         watch_compiles()
         self._compile_watch = QTimer(self)
@@ -553,15 +549,15 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
 
     def _settle(self) -> None:
         """The run is over: buttons, progress bar and status show it."""
-        self._compile_watch.stop()
         cancelled = self._plan is not None and not self._outcome_received
         release, self._release_collections = self._release_collections, _nothing
         self.worker = None
         self._plan = None  # holds the input data: let it go
         self._input = None
-        if self._closed:
+        if self._closed:  # the close stopped the watch: its Qt side may be gone
             release()
             return
+        self._compile_watch.stop()
         # after the result's first draw, which is pending: a collection that fell due
         # during the run must not land in it
         QTimer.singleShot(NEXT_TURN_MS, release)
