@@ -129,7 +129,7 @@ def _tone_range(g, range_bounds, n_ranges):
     return i
 
 
-@njit(inline="always")
+@njit
 def _border_index(i, n, border):
     """Index of a neighbour coordinate ``i`` on an axis of length ``n``; -1 if dropped."""
     if 0 <= i < n:
@@ -171,7 +171,7 @@ def _interior_squares(plane, y, x, mean):
     return total
 
 
-@njit(inline="always")
+@njit
 def _gather(plane, y, x, border, neighbours, height, row_offset):
     """Collect the finite neighbours that count at a border or near a non-finite pixel.
 
@@ -360,7 +360,7 @@ def _kept_run(plane, y, x, x_stop, mean_threshold, variance_threshold, variance_
     return x
 
 
-@njit(inline="always")
+@njit
 def _note_written(changes, index):
     """Note that the pixel of flat index ``index`` was written (see ``labyrinth_pass``)."""
     if changes is not None:
