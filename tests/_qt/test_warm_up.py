@@ -16,20 +16,25 @@ from napari_labyrinth._qt.warm_up import PREPARING
 
 from .helpers import RUN_TIMEOUT_MS, noise
 
-#: A stand-in for the warm-up: says two steps, then waits for its file to appear.
+#: A stand-in for the warm-up: each of its two steps lasts until its file appears.
 _SLOW_WARM_UP = """
 import os, sys, time
+def wait(path):
+    while not os.path.exists(path):
+        time.sleep(0.05)
 print("step 1 of 2: the render of uint8 images", flush=True)
 print("kernel labyrinth_pass", flush=True)
-while not os.path.exists(sys.argv[1]):
-    time.sleep(0.05)
+wait(sys.argv[1] + "1")
+print("step 2 of 2: the metrics of a stack", flush=True)
+wait(sys.argv[1] + "2")
 print("done", flush=True)
 """
 
 
 @pytest.fixture
 def slow_warm_up(monkeypatch, tmp_path):
-    """The widget's warm-up replaced by one that ends once ``release`` is called."""
+    """The widget's warm-up replaced by one whose step K ends once ``release(K)`` is called
+    (``release()``: both)."""
     release_file = tmp_path / "release"
     script = tmp_path / "warm_up.py"
     script.write_text(_SLOW_WARM_UP)
@@ -42,7 +47,11 @@ def slow_warm_up(monkeypatch, tmp_path):
     monkeypatch.delenv(_warmup.DISABLE_VARIABLE, raising=False)
     monkeypatch.setattr(_warmup, "command", command)
     monkeypatch.setattr(warm_up_module, "_started", False)
-    return commands, lambda: release_file.write_text("")
+    def release(*steps):
+        for step in steps or (1, 2):
+            (tmp_path / f"release{step}").write_text("")
+
+    return commands, release
 
 
 def _open_widget(viewer):
@@ -66,6 +75,36 @@ def test_a_run_waits_for_the_warm_up_and_says_so_then_renders(qtbot, viewer, slo
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
     assert len(viewer.layers) == 2
     assert widget.status.value.startswith("Added")
+
+
+def test_a_run_waits_only_for_the_steps_it_needs(qtbot, viewer, slow_warm_up):
+    _, release = slow_warm_up
+    viewer.add_image(noise((64, 64)), name="cells")
+    widget = _open_widget(viewer)
+    qtbot.waitUntil(lambda: widget.warm_up.step != "", timeout=10_000)
+    widget.mode.value = "stack"
+    assert widget.run() is not None
+    release(1)  # the render's kernels: a stack with metrics needs the metrics' too
+    qtbot.waitUntil(lambda: "step 2 of 2" in widget.status.value, timeout=10_000)
+    qtbot.wait(200)
+    assert widget._waiting is not None and len(viewer.layers) == 1
+    release(2)
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    assert len(viewer.layers) == 2
+    widget.mode.value = "single"
+    widget.run()  # the warm-up has ended: at once
+    assert widget._waiting is None
+
+
+def test_a_single_run_starts_once_the_render_is_prepared(qtbot, viewer, slow_warm_up):
+    _, release = slow_warm_up
+    viewer.add_image(noise((64, 64)), name="cells")
+    widget = _open_widget(viewer)
+    assert widget.run() is not None
+    release(1)  # the metrics, still compiling in the warm-up, are not this run's
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    assert len(viewer.layers) == 2 and widget.warm_up.running
+    release(2)
 
 
 def test_cancelling_a_run_that_waits_for_the_warm_up_adds_nothing(qtbot, viewer, slow_warm_up):

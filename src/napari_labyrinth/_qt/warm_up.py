@@ -41,6 +41,8 @@ class WarmUp(QObject):
         self._on_end = on_end
         self._process: QProcess | None = None
         self.step = ""
+        #: Steps the process has finished (each is a kind of run: the render, the metrics).
+        self.steps_done = 0
 
     @property
     def running(self) -> bool:
@@ -79,7 +81,12 @@ class WarmUp(QObject):
         for line in text.splitlines():
             if line.startswith("step "):  # step K of N: what
                 self.step = line.replace(": ", ", ", 1)
+                self.steps_done = int(line.split()[1]) - 1
             self._on_line(line)
+
+    def done_with(self, steps: int) -> bool:
+        """Whether the first ``steps`` steps are done (or the process has ended)."""
+        return not self.running or self.steps_done >= steps
 
     def _ended(self, *_args) -> None:
         self._read()

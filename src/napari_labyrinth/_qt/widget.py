@@ -417,7 +417,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         self._rendering = f"Rendering {plan.description} …"
         self.status.value = self._rendering
         self._compile_watch.start()
-        if start and self.warm_up.running:  # its kernels are this run's: wait for them
+        if start and not self.warm_up.done_with(_warm_up_steps(plan)):  # its kernels: wait
             self._waiting = worker
             self.progress_bar.setRange(0, 0)  # busy: the warm-up says no fraction done
             self.status.value = f"{PREPARING} ({self.warm_up.step or 'starting'}) …"
@@ -582,12 +582,16 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         return str(dtype)
 
     def _on_warm_up_line(self, line: str) -> None:
-        if self._waiting is not None and not self._closed:
-            if line.startswith("kernel "):
-                detail = f"{self.warm_up.step}: compiling {line.split(' ', 1)[1]}"
-            else:
-                detail = line
-            self.status.value = f"{PREPARING} ({detail}) …"
+        if self._waiting is None or self._closed:
+            return
+        if self.warm_up.done_with(_warm_up_steps(self._plan)):  # the rest is not this run's
+            self._on_warm_up_end()
+            return
+        if line.startswith("kernel "):
+            detail = f"{self.warm_up.step}: compiling {line.split(' ', 1)[1]}"
+        else:
+            detail = line
+        self.status.value = f"{PREPARING} ({detail}) …"
 
     def _on_warm_up_end(self) -> None:
         worker, self._waiting = self._waiting, None
@@ -649,6 +653,12 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
 
 def _nothing() -> None:
     pass
+
+
+def _warm_up_steps(plan: RenderPlan) -> int:
+    """The steps of the warm-up (``_warmup.warm_up_steps``) a run of ``plan`` needs: the
+    render, and the metrics for a stack that measures its passes."""
+    return 2 if plan.metrics else 1
 
 
 def _abandon(steps) -> None:
