@@ -3,6 +3,7 @@ the window's menus as a user opens them (napari 0.5 to 0.9; PyQt5, PyQt6, PySide
 
 from __future__ import annotations
 
+import inspect
 import json
 import re
 
@@ -129,3 +130,31 @@ def docked_widget(viewer):
     """The one widget docked in the viewer's window (fails if there are more, or none)."""
     (dock,) = labyrinth_docks(viewer)
     return dock.widget()
+
+
+def grid_squares(viewer) -> dict:
+    """The (row, column) of the grid where each visible layer is drawn, by layer name.
+
+    As napari lays the grid out: up to 0.6.1 each layer is translated by whole scenes (read
+    here in a grid of at most 2 x 2), from 0.6.2 on the canvas draws the layers of each square
+    of ``iter_viewboxes`` in a viewbox of its own (hidden layers take no square from 0.9 on).
+    """
+    grid = viewer.canvas.grid if hasattr(viewer, "canvas") else viewer.grid
+    layers = list(viewer.layers)
+    if not grid.enabled:
+        return {layer.name: (0, 0) for layer in layers if layer.visible}
+    if not hasattr(grid, "iter_viewboxes"):
+        return {
+            layer.name: tuple(int(shift > 0) for shift in layer._translate_grid[-2:])
+            for layer in layers
+            if layer.visible
+        }
+    counted = (
+        len(layers) if "nlayers" in inspect.signature(grid.iter_viewboxes).parameters else layers
+    )
+    return {
+        layers[index].name: tuple(square)
+        for square, indices in grid.iter_viewboxes(counted)
+        for index in indices
+        if layers[index].visible
+    }

@@ -34,15 +34,18 @@ TRANSFORMS = {
 
 def test_the_snapshot_holds_the_layer_settings_as_plain_values(viewer):
     data = noise((3, 16, 16))
-    layer = viewer.add_image(
-        data,
-        name="movie",
-        units=("s", "um", "um"),
-        axis_labels=("t", "y", "x"),
-        contrast_limits=(10, 200),
-        gamma=0.8,
-        colormap="magma",
-        **TRANSFORMS,
+    # napari 0.5's add_image takes no units nor axis labels (a sequence asks for channel_axis)
+    layer = viewer.add_layer(
+        Image(
+            data,
+            name="movie",
+            units=("s", "um", "um"),
+            axis_labels=("t", "y", "x"),
+            contrast_limits=(10, 200),
+            gamma=0.8,
+            colormap="magma",
+            **TRANSFORMS,
+        )
     )
     snapshot = layer_snapshot(layer, viewer.dims.point)
     assert snapshot.name == "movie" and snapshot.data is layer.data

@@ -13,6 +13,8 @@ import pytest
 pytest.importorskip("napari")
 pytest.importorskip("pytestqt")
 
+from napari.layers import Image
+
 import napari_labyrinth
 from napari_labyrinth import api
 from napari_labyrinth._qt.widget import LabyrinthWidget
@@ -20,14 +22,15 @@ from napari_labyrinth.core import presets
 from napari_labyrinth.plan import CURRENT_PLANE, METADATA_KEY
 
 from ..plan_helpers import counting_lazy
-from .helpers import noise, reproduce, result_data, run
+from .helpers import grid_squares, labyrinth_docks, noise, reproduce, result_data, run
 
 # -- opening, choices, presets -----------------------------------------------------------------
 
 
 def test_widget_opens_from_the_manifest_with_the_default_preset(viewer, widget):
     assert isinstance(widget, LabyrinthWidget)
-    assert viewer.window.dock_widgets["Labyrinthine tiling (napari-labyrinth)"] is widget
+    (dock,) = labyrinth_docks(viewer)
+    assert dock.widget() is widget and dock.name == "Labyrinthine tiling (napari-labyrinth)"
     assert widget.preset.value == presets.DEFAULT_PRESET
     assert list(widget.preset.choices) == list(presets.PRESETS)
     assert widget.overrides() == {}
@@ -112,13 +115,16 @@ def test_single_mode_adds_a_layer_that_the_api_reproduces(
 
 def test_stack_mode_holds_the_input_and_every_pass_with_metrics(qtbot, viewer, widget):
     data = noise((64, 64))
-    viewer.add_image(
-        data,
-        name="cell",
-        scale=(2.0, 3.0),
-        translate=(5.0, 7.0),
-        units=("um", "um"),
-        axis_labels=("y", "x"),
+    # napari 0.5's add_image takes no units nor axis labels (a sequence asks for channel_axis)
+    viewer.add_layer(
+        Image(
+            data,
+            name="cell",
+            scale=(2.0, 3.0),
+            translate=(5.0, 7.0),
+            units=("um", "um"),
+            axis_labels=("y", "x"),
+        )
     )
     widget.mode.value = "stack"
     widget.fields["passes"].value = 3
@@ -248,9 +254,16 @@ def test_lazy_input_renders_the_visible_plane_and_keeps_the_rest_lazy(qtbot, vie
     np.testing.assert_array_equal(np.asarray(result.data), reproduce(result, data))
 
 
-def test_compare_shows_input_and_result_side_by_side_and_back(qtbot, viewer, widget):
-    other = viewer.add_image(noise((32, 32), seed=1), name="other")
+@pytest.mark.parametrize("other_between", [False, True])
+def test_compare_shows_input_and_result_side_by_side_and_back(
+    qtbot, viewer, widget, other_between
+):
+    # a hidden layer between the input and the result took a square of napari 0.5's grid
+    if not other_between:
+        other = viewer.add_image(noise((32, 32), seed=1), name="other")
     source = viewer.add_image(noise((32, 32)), name="cell")
+    if other_between:
+        other = viewer.add_image(noise((32, 32), seed=1), name="other")
     widget.image_layer.value = source
     run(qtbot, widget)
     result = widget.last_result
@@ -259,7 +272,8 @@ def test_compare_shows_input_and_result_side_by_side_and_back(qtbot, viewer, wid
     widget.toggle_compare()
     assert widget.comparing and grid.enabled
     assert [layer.visible for layer in (other, source, result)] == [False, True, True]
-    assert grid.actual_shape(list(viewer.layers)) == (1, 2)
+    assert tuple(grid.shape) == (1, 2)
+    assert grid_squares(viewer) == {"cell": (0, 0), result.name: (0, 1)}
     widget.toggle_compare()
     assert not widget.comparing and not grid.enabled
     assert all(layer.visible for layer in (other, source, result))

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
+from napari.components.grid import GridCanvas
 from napari.layers import Image
 from napari.utils.notifications import show_info
 from napari.viewer import Viewer
@@ -14,7 +16,10 @@ from ..plan import METADATA_KEY
 class CompareView:
     """Switches a viewer between its own view and a 1 x 2 grid of an input and its result.
 
-    Going back restores the grid settings and the visibility of every layer.
+    The input is on the left, the result on the right, whatever lies between them in the layer
+    list: up to napari 0.8 the hidden layers take squares of the grid too, and the stride is
+    chosen so that they leave these two apart. Going back restores the grid settings and the
+    visibility of every layer.
     """
 
     def __init__(self, viewer: Viewer) -> None:
@@ -53,7 +58,7 @@ class CompareView:
             # napari hands plugins proxies of its layers: compare with ==, not `is`
             layer.visible = layer == source or layer == result
         layers = list(self.viewer.layers)
-        grid.stride = 1 if layers.index(source) < layers.index(result) else -1
+        grid.stride = _side_by_side_stride(layers, layers.index(source), layers.index(result))
         grid.shape = (1, 2)
         grid.enabled = True
 
@@ -69,3 +74,31 @@ class CompareView:
 
     def _grid(self):
         return getattr(self.viewer, "canvas", self.viewer).grid
+
+
+#: The largest stride napari's grid accepts.
+_MAX_STRIDE = 50
+
+
+def _side_by_side_stride(layers: list, left: int, right: int) -> int:
+    """The stride of a 1 x 2 grid that shows ``layers[left]`` on the left and ``layers[right]``
+    on the right, as this napari lays out the grid (1 if none does)."""
+    for size in range(1, min(len(layers), _MAX_STRIDE) + 1):
+        for stride in (size, -size):
+            trial = GridCanvas(stride=stride, shape=(1, 2), enabled=True)
+            if _square(trial, layers, left) == (0, 0) and _square(trial, layers, right) == (0, 1):
+                return stride
+    return 1
+
+
+def _square(grid: GridCanvas, layers: list, index: int) -> tuple[int, int]:
+    """The (row, column) of the grid where napari draws ``layers[index]``."""
+    n = len(layers)
+    if not hasattr(grid, "iter_viewboxes"):
+        # napari < 0.6.2 places layer i at the grid's position n - 1 - i, hidden layers included
+        return tuple(grid.position(n - 1 - index, n))
+    if "nlayers" in inspect.signature(grid.position).parameters:
+        # napari 0.6.2 to 0.8 (a viewbox per square): layer i at position i, hidden included
+        return tuple(grid.position(index, n))
+    # napari 0.9: the hidden layers take no square
+    return tuple(grid.position(index, layers))
