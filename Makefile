@@ -114,6 +114,8 @@ test-install: $(VENV)/.installed-test
 # PyQt5, PyQt6 and PySide6, the oldest napari with numpy 1.26 (noxfile.py), then the install
 # test. Not part of make test. One session: make test-matrix NOX_ARGS="-s napari-latest-pyside6".
 NOX_ARGS ?=
+# MATRIX_REF=HEAD tests that commit, not the working tree (others may be editing it).
+MATRIX_REF ?=
 # What the xcb platform plugins of Qt 5 and Qt 6 link (ldd of PyQt5, PyQt6 and PySide6);
 # the base image lacks only PyQt5's libxcb-xinerama0 beyond APT_PACKAGES.
 QT_APT_PACKAGES := libxcb-xinerama0 libxcb-cursor0 libxcb-image0 libxcb-randr0 \
@@ -126,7 +128,7 @@ test-matrix: APT_PACKAGES += $(QT_APT_PACKAGES)
 test-matrix: $(VENV)/.installed-test system-packages
 	$(PIP) install -q "nox>=2025.2.9" "uv>=0.5"
 	@rm -rf $(MATRIX_SUMMARY); mkdir -p $(MATRIX_SUMMARY); start=$$(date +%s); status=0; \
-	$(VENV)/bin/nox $(NOX_ARGS) || status=1; \
+	NAPARI_LABYRINTH_MATRIX_REF=$(MATRIX_REF) $(VENV)/bin/nox $(NOX_ARGS) || status=1; \
 	if [ -z "$(NOX_ARGS)" ]; then t=$$(date +%s); \
 	  NAPARI_LABYRINTH_INSTALL_TESTS=1 $(PY) -m pytest tests/test_install_wheel.py -q \
 	    -p no:cacheprovider && r=passed || { r=failed; status=1; }; \

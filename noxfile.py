@@ -43,13 +43,14 @@ nox.options.default_venv_backend = "uv|virtualenv"
 nox.options.error_on_missing_interpreters = True
 
 #: name: (Python, napari, Qt binding (qtpy's QT_API), other pins).
-#: "oldest" also resolves every direct dependency to the lowest version pyproject.toml allows.
+#: "oldest" also resolves the package's dependencies and the test extra to the lowest versions
+#: pyproject.toml allows.
 MATRIX = {
     "napari-0.5-pyqt5": ("3.11", "napari==0.5.*", "pyqt5", []),
     "napari-0.6-pyqt6": ("3.12", "napari==0.6.*", "pyqt6", []),
     "napari-latest-pyqt6": ("3.13", "napari", "pyqt6", []),
     "napari-latest-pyside6": ("3.12", "napari", "pyside6", []),
-    "oldest-numpy-1.26": ("3.10", "napari==0.5.0", "pyqt5", ["numpy==1.26.*"]),
+    "oldest-numpy-1.26": ("3.11", "napari==0.5.0", "pyqt5", ["numpy==1.26.*"]),
 }
 LOWEST_DIRECT = {"oldest-numpy-1.26"}
 
@@ -103,12 +104,33 @@ def _test_requirements() -> list[str]:
     return [r for r in extra["test"] if Requirement(r).name != "napari"]
 
 
+def _source(session: nox.Session) -> Path:
+    """The tree to build: the working tree, or the commit NAPARI_LABYRINTH_MATRIX_REF names
+    (a tree others edit meanwhile may hold their unfinished changes)."""
+    ref = os.environ.get("NAPARI_LABYRINTH_MATRIX_REF")
+    if not ref:
+        return ROOT
+    tree = WORK / "source"
+    shutil.rmtree(tree, ignore_errors=True)
+    tree.mkdir(parents=True)
+    archive = subprocess.run(
+        ["git", "-C", str(ROOT), "archive", ref], capture_output=True, check=True
+    ).stdout
+    subprocess.run(["tar", "-x", "-C", str(tree)], input=archive, check=True)
+    commit = subprocess.run(
+        ["git", "-C", str(ROOT), "rev-parse", "--short", ref], capture_output=True, text=True
+    ).stdout.strip()
+    session.log(f"building {ref} ({commit})")
+    return tree
+
+
 def _built_wheel(session: nox.Session) -> Path:
     """The sdist, and the wheel built from it, once per run (build/nox/dist); the sdist
     unpacked for its tests."""
     if "wheel" not in _dist:
         out = WORK / "dist"
         shutil.rmtree(out, ignore_errors=True)
+        source = _source(session)
         if importlib.util.find_spec("build") is not None:
             session.run(
                 sys.executable,
@@ -116,13 +138,13 @@ def _built_wheel(session: nox.Session) -> Path:
                 "build",
                 "--outdir",
                 str(out),
-                str(ROOT),
+                str(source),
                 external=True,
                 silent=True,
             )
         else:
             session.install("build")
-            session.run("python", "-m", "build", "--outdir", str(out), str(ROOT), silent=True)
+            session.run("python", "-m", "build", "--outdir", str(out), str(source), silent=True)
         (_dist["wheel"],) = out.glob("napari_labyrinth-*.whl")
         (_dist["sdist"],) = out.glob("napari_labyrinth-*.tar.gz")
         # The tests of the same moment as the wheel: the sdist's (the tree may change meanwhile).
@@ -168,7 +190,9 @@ def _matrix_session(session: nox.Session, name: str) -> None:
     wheel = _built_wheel(session)
     resolution = []
     if name in LOWEST_DIRECT and session.venv_backend == "uv":
-        resolution = ["--resolution", "lowest-direct"]
+        # The package's own dependencies named too: lowest-direct lowers only those named.
+        project = nox.project.load_toml(ROOT / "pyproject.toml")["project"]
+        resolution = ["--resolution", "lowest-direct", *project["dependencies"]]
     session.install(*resolution, str(wheel), napari, BINDINGS[api], *pins, *_test_requirements())
 
     # The sdist's tests, without its src/: nothing can import anything but the wheel.
