@@ -1,7 +1,6 @@
 """The warm-up process that fills numba's cache outside the viewer's process."""
 
 import subprocess
-import sys
 
 import pytest
 
