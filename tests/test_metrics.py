@@ -384,12 +384,20 @@ def test_maps_made_without_walls_give_the_same_walls_when_asked(cases, tone):
 
 
 def _derived(components):
-    """The contours' coherent strength, cos and sin of twice the angle, from their tensor."""
-    from napari_labyrinth import _metrics_kernels
-
-    maps = [np.empty(components[0].size, dtype=np.float32) for _ in range(4)]
-    _metrics_kernels._derive(*(c.ravel() for c in components), *maps)
-    return [m.reshape(components[0].shape) for m in (maps[1], maps[1], maps[2], maps[3])]
+    """The contours' coherent strength, cos and sin of twice the angle, from their tensor
+    (the kernels' ``_derived``, in numpy)."""
+    jrr, jrc, jcc = (component.astype(np.float64) for component in components)
+    trace = jrr + jcc
+    along = jrr - jcc
+    across = 2.0 * jrc
+    difference = np.sqrt(along * along + across * across)
+    coherence = np.where(trace > 0, (difference / np.maximum(trace, 1e-12)) ** 2, 0.0)
+    oriented = difference > 0
+    divisor = np.where(oriented, difference, 1.0)
+    cosine = np.where(oriented, along / divisor, 1.0).astype(np.float32)
+    sine = np.where(oriented, across / divisor, 0.0).astype(np.float32)
+    coherent = (coherence * trace).astype(np.float32)
+    return [coherent, coherent, cosine, sine]
 
 
 def test_the_decimated_contour_tensor_is_close_to_the_doubled_grids(monkeypatch):
@@ -485,7 +493,7 @@ def test_an_originals_energy_without_h_is_the_energy_from_h(cases, monkeypatch, 
             np.testing.assert_array_equal(map_, expected)
         summary, full = original._fine(), whole._fine()
         assert summary.fine is None and "fine" not in original._values
-        for field in ("total", "largest_square", "lag_scale", "finite", "largest_tone"):
+        for field in ("total", "largest_square", "finite", "largest_tone"):
             a, b = getattr(summary, field), getattr(full, field)
             assert a == b or (math.isnan(a) and math.isnan(b)), field
 
@@ -647,6 +655,34 @@ def test_planes_read_in_their_own_dtype_give_the_float64_planes_numbers_bit_for_
     np.testing.assert_array_equal(single.above_local_mean(), floats.above_local_mean())
     assert metrics.edge_enhancement(original, rendered) == expected["edge_enhancement"]
     assert metrics.wall_width(rendered) == expected["wall_width"]
+
+
+def test_planes_of_every_dtype_run_the_same_compiled_kernels():
+    """numba compiles each kernel once, whatever the planes' dtypes (they come in one tuple,
+    ``_metrics_kernels.plane_tuple``), and each helper once per float type it smooths (no
+    copy for a literal argument). Read-only arrays, which a caller may pass, are numba's
+    other types: not counted."""
+    from numba.core import types
+    from numba.core.registry import CPUDispatcher
+
+    from napari_labyrinth import _metrics_kernels
+
+    original = (cholesteric_fingerprint((96, 140), seed=2) * 250).astype(np.uint8)
+    rendered = labyrinth(original, seed=4)
+    for dtype in (np.uint8, np.uint16, np.float32, np.float64):
+        values = metrics.describe(original.astype(dtype), rendered.astype(dtype), workers=2)
+        assert values["contour_alignment"] > 0  # every kernel of the walls ran
+        metrics.Comparison(original.astype(dtype)).edge_enhancement(rendered.astype(dtype))
+
+    def writeable(argument):
+        if isinstance(argument, types.BaseTuple):
+            return all(writeable(member) for member in argument)
+        return not isinstance(argument, types.Array) or argument.mutable
+
+    for name, dispatcher in vars(_metrics_kernels).items():
+        if isinstance(dispatcher, CPUDispatcher):
+            compiled = [s for s in dispatcher.signatures if all(map(writeable, s))]
+            assert len(compiled) <= (2 if name == "_gauss" else 1), (name, compiled)
 
 
 def test_other_dtypes_are_read_as_float64():

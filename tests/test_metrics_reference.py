@@ -3,10 +3,9 @@
 Tolerances, and why:
 
 - ``fine_scale``, ``wall_map``, ``labyrinth_cover`` and ``wall_width``: exactly
-  equal. The Gaussians behind them are computed as ``scipy.ndimage`` computes
-  them, operation for operation; the lag correlations are smoothed in float32
-  but every wall decision that float32's error bound leaves open is recomputed
-  in float64 the reference's way, so the wall map is the same boolean map.
+  equal. The Gaussians behind them, the lag correlations' included, are
+  computed as ``scipy.ndimage`` computes them, operation for operation, in
+  float64, so the wall map is the same boolean map.
 - ``texture_added`` and ``edge_enhancement``: relative 1e-9 (sums in a
   different order; the energy added is ``G * h1**2 - G * h0**2`` instead of
   ``G * (h1**2 - h0**2)``).

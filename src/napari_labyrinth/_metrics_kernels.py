@@ -4,54 +4,80 @@ Every kernel works on a band of output rows ``[y0, y1)`` of a 2-D plane, so
 that the caller can share a plane's rows between threads; every kernel
 releases the GIL and allocates its own buffers (no shared mutable state).
 Sums are made row by row (the caller adds the rows' sums), so that results
-do not depend on the bands. A plane may be float64, uint8 or uint16: each
-value enters the arithmetic through an exact float64 operation (or a sum of
-two values in 64-bit integers), so the results do not depend on which.
+do not depend on the bands.
+
+A plane is given as the tuple of :func:`plane_tuple`: one slot per dtype a
+plane may have (uint8, uint16, float32, float64), the plane in its own and
+empty arrays in the others. Kernels read its rows through
+:func:`_load_row`, which converts them to float64 (exactly), so that each
+kernel is compiled once for every dtype, and the results are those of the
+plane's float64 copy.
 
 Precision, chosen by what each result feeds:
 
-- The fine-scale component, the local energy and the local mean are
-  float64 and follow ``scipy.ndimage.gaussian_filter`` operation for
-  operation (the same 1-D passes, axis 0 then axis 1, the same ``reflect``
-  extension, the same order of the taps: centre first, then the outermost
-  pair down to the nearest): they are scipy's floats, bit for bit.
-- The 12 lag correlations behind the wall map are smoothed in float32 with
-  a bound on their error; the few pixels whose wall decision the bound
-  leaves open are recomputed in float64 in scipy's order
-  (:func:`smooth_band`). The wall map is the float64 one.
+- The fine-scale component, the local energy, the 12 lag correlations
+  behind the wall map and the local mean are float64 and follow
+  ``scipy.ndimage.gaussian_filter`` operation for operation (the same 1-D
+  passes, axis 0 then axis 1, the same ``reflect`` extension, the same
+  order of the taps: centre first, then the outermost pair down to the
+  nearest): they are scipy's floats, bit for bit, and the wall map the
+  reference's.
 - The structure tensors (orientations) are float32: they only feed weighted
   means, where float32 rounding moves the result by about 1e-8. The walls'
   and the contours' tensors are decimated (:func:`decimated_tensor_band`):
   the doubled grid's products filtered 1-2-1 and smoothed on the original
   grid, a window within a few per cent of the doubled grid's Gaussian at a
   quarter of its pixels; :func:`orientation_band` is the doubled grid's.
+
+numba compiles every kernel on its first call (then keeps it in its disk
+cache), and the time grows with the code it compiles: each kernel and
+helper once per signature, and a helper's code once more in every kernel
+or helper that calls it (linked into it, optimized and made into machine
+code again). The kernels are therefore few, their helpers called by the
+kernels themselves rather than by other helpers where that can be, code
+used once written where it is used, one signature per helper (a plane of
+any dtype in one tuple; no literal constant passed to a helper, which
+would compile it once more for its value), plain loops rather than numpy
+calls that bring heavy implementations (an array assigned to a slice
+compiles numba's formatting of shape errors), and each call compiles only
+the kernels it runs (``docs/metrics.md``, "Compile time").
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from .core._jit import cached_njit
+
+#: The decorator of the helpers, which only kernels call: no entry point for Python (numba
+#: compiles none) and no disk cache of their own (their code is in each kernel's).
+_helper = njit(nogil=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
 #: Lattice directions as families of lags: family f holds the lags k * u_f, k = 1, 2, 4.
 FAMILIES = ((0, 1), (1, 0), (1, 1), (1, -1))
 #: The family of the normal of each direction: (0, 1) <-> (1, 0), (1, 1) <-> (1, -1).
 NORMAL_FAMILY = np.array([1, 0, 3, 2], dtype=np.int64)
-#: Smoothed maps of the wall pass: map 0 is the energy h**2, map 1 + 3 f + q the
-#: symmetric lag product of h at lag k_q * u_f (k = 1, 2, 4).
-LAG_DY = np.array([0] + [k * dy for dy, _ in FAMILIES for k in (1, 2, 4)], dtype=np.int64)
-LAG_DX = np.array([0] + [k * dx for _, dx in FAMILIES for k in (1, 2, 4)], dtype=np.int64)
+#: Lag maps of the wall pass: map 3 f + q is the symmetric lag product of h at lag
+#: k_q * u_f (k = 1, 2, 4).
+LAG_DY = np.array([k * dy for dy, _ in FAMILIES for k in (1, 2, 4)], dtype=np.int64)
+LAG_DX = np.array([k * dx for _, dx in FAMILIES for k in (1, 2, 4)], dtype=np.int64)
 
-#: What :func:`smooth_band` computes.
-MODE_WALLS = 0  # energy and the 12 lag correlations -> energy map and wall map
-MODE_ENERGY = 1  # energy map only
-MODE_LOCAL_MEAN = 2  # the plane's Gaussian mean -> plane > mean
-
-#: Blocks of :func:`smooth_band`: a map's ring buffer stays in L1, a block's values in L2.
+#: Column tiles of the wall pass and the local mean: a map's ring buffer stays in L2.
 X_TILE = 512
+#: Rows of a block of the local mean: blocks without walls are skipped.
 Y_BLOCK = 128
-#: Rows of a block of the 12 float32 lag maps (they then fit in L2 together).
+#: Rows of a block of the 12 lag maps of the wall pass.
 LAG_BLOCK = 64
+
+#: The dtypes of the slots of :func:`plane_tuple`.
+PLANE_DTYPES = (
+    np.dtype(np.uint8),
+    np.dtype(np.uint16),
+    np.dtype(np.float32),
+    np.dtype(np.float64),
+)
+_NO_PLANE = {dtype: np.empty((0, 0), dtype=dtype) for dtype in PLANE_DTYPES}
 
 
 def gaussian_weights(sigma: float, truncate: float = 4.0) -> np.ndarray:
@@ -68,9 +94,51 @@ def gaussian_weights(sigma: float, truncate: float = 4.0) -> np.ndarray:
     return np.ascontiguousarray(phi[radius:])
 
 
-@cached_njit(nogil=True)
+def plane_tuple(plane: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The kernels' form of a C-contiguous plane of one of :data:`PLANE_DTYPES`: the plane
+    in the slot of its dtype, empty arrays in the others."""
+    if plane.dtype not in PLANE_DTYPES or not plane.flags.c_contiguous:
+        raise TypeError(
+            f"a plane of the kernels is C-contiguous {PLANE_DTYPES}, not {plane.dtype}"
+        )
+    return tuple(plane if plane.dtype == dtype else _NO_PLANE[dtype] for dtype in PLANE_DTYPES)
+
+
+# --- helpers shared by the kernels ------------------------------------------------------------
+
+
+@_helper
+def _plane_shape(planes):
+    """Height and width of the plane of a :func:`plane_tuple` (the others are empty)."""
+    height = planes[0].shape[0] + planes[1].shape[0] + planes[2].shape[0] + planes[3].shape[0]
+    width = planes[0].shape[1] + planes[1].shape[1] + planes[2].shape[1] + planes[3].shape[1]
+    return height, width
+
+
+@_helper
+def _load_row(planes, row, x0, x1, out):
+    """``out[x - x0]`` = the plane's value at (``row``, x) as a float64, for x in ``[x0, x1)``."""
+    if planes[0].shape[0] > 0:
+        source8 = planes[0][row]
+        for x in range(x0, x1):
+            out[x - x0] = source8[x]
+    elif planes[1].shape[0] > 0:
+        source16 = planes[1][row]
+        for x in range(x0, x1):
+            out[x - x0] = source16[x]
+    elif planes[2].shape[0] > 0:
+        source32 = planes[2][row]
+        for x in range(x0, x1):
+            out[x - x0] = source32[x]
+    else:
+        source64 = planes[3][row]
+        for x in range(x0, x1):
+            out[x - x0] = source64[x]
+
+
+@_helper
 def _sum(values):
-    """Sum of a line: eight interleaved partial sums (independent chains), then those."""
+    """The sum of a line: eight interleaved partial sums (independent chains), then those."""
     n = values.shape[0]
     a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
     end = n - n % 8
@@ -88,7 +156,7 @@ def _sum(values):
     return ((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7))
 
 
-@cached_njit(nogil=True)
+@_helper
 def _finite_range(values):
     """Smallest and largest finite value of a line (inf, -inf if none) and the count of others."""
     low = np.inf
@@ -104,15 +172,7 @@ def _finite_range(values):
     return low, high, others
 
 
-@cached_njit(nogil=True)
-def _any_above(values, threshold):
-    for x in range(values.shape[0]):
-        if values[x] > threshold:
-            return True
-    return False
-
-
-@cached_njit(nogil=True)
+@_helper
 def _reflect(i, n):
     """Index of virtual position ``i`` of a line of ``n`` under scipy's ``reflect``."""
     period = 2 * n
@@ -122,843 +182,410 @@ def _reflect(i, n):
     return i
 
 
-@cached_njit(nogil=True)
-def _scale(out, centre, w0):
-    for i in range(out.shape[0]):
-        out[i] = centre[i] * w0
+@_helper
+def _gauss(rows, taps, weights, out):
+    """``out[i]`` = a Gaussian of ``weights`` at column i, in scipy's order of operations for
+    a symmetric kernel: the centre times ``w[0]``, then ``+= (a_j + b_j) w[j]`` for j = r ..
+    1, four taps per sweep over ``out`` (the same order, fewer loads and stores).
 
-
-@cached_njit(nogil=True)
-def _add_taps4(out, a1, b1, w1, a2, b2, w2, a3, b3, w3, a4, b4, w4):
-    """``out += (a1 + b1) w1``, then ``+= (a2 + b2) w2`` ... in this order, elementwise."""
-    for i in range(out.shape[0]):
-        value = out[i]
-        value += (a1[i] + b1[i]) * w1
-        value += (a2[i] + b2[i]) * w2
-        value += (a3[i] + b3[i]) * w3
-        value += (a4[i] + b4[i]) * w4
-        out[i] = value
-
-
-@cached_njit(nogil=True)
-def _add_tap(out, a, b, w):
-    for i in range(out.shape[0]):
-        out[i] += (a[i] + b[i]) * w
-
-
-@cached_njit(nogil=True)
-def _gauss_rows(rows, lower, upper, centre, weights, out):
-    """``out = rows[centre] w0``, then ``+= (rows[lower[j]] + rows[upper[j]]) w[j]``, j = r .. 1.
-
-    scipy's order of operations for a symmetric kernel; four taps per sweep
-    over ``out`` (same order, fewer loads and stores).
+    Tap j's values ``a_j``, ``b_j`` are rows ``taps[0, j]`` and ``taps[1, j]`` of ``rows``
+    from columns ``taps[2, j]`` and ``taps[3, j]`` on (the centre: ``taps[0, 0]``,
+    ``taps[2, 0]``): a ring of rows read down a column (axis 0: rows y - j and y + j from
+    column 0), or one extended line read at shifts along itself (axis 1: columns
+    ``start - j`` and ``start + j`` of one row, output column 0 at ``start``).
     """
-    radius = weights.shape[0] - 1
-    _scale(out, rows[centre], weights[0])
-    j = radius
-    while j >= 4:
-        _add_taps4(
-            out,
-            rows[lower[j]],
-            rows[upper[j]],
-            weights[j],
-            rows[lower[j - 1]],
-            rows[upper[j - 1]],
-            weights[j - 1],
-            rows[lower[j - 2]],
-            rows[upper[j - 2]],
-            weights[j - 2],
-            rows[lower[j - 3]],
-            rows[upper[j - 3]],
-            weights[j - 3],
-        )
-        j -= 4
-    while j >= 1:
-        _add_tap(out, rows[lower[j]], rows[upper[j]], weights[j])
-        j -= 1
-
-
-@cached_njit(nogil=True)
-def _gauss_line(ext, radius, weights, out):
-    """``out[i]`` = Gaussian of the extended line ``ext`` at ``ext[radius + i]``, scipy's order."""
     n = out.shape[0]
-    _scale(out, ext[radius : radius + n], weights[0])
-    j = radius
+    middle = rows[taps[0, 0], taps[2, 0] :]
+    w0 = weights[0]
+    for i in range(n):
+        out[i] = middle[i] * w0
+    j = weights.shape[0] - 1
     while j >= 4:
-        _add_taps4(
-            out,
-            ext[radius - j : radius - j + n],
-            ext[radius + j : radius + j + n],
-            weights[j],
-            ext[radius - j + 1 : radius - j + 1 + n],
-            ext[radius + j - 1 : radius + j - 1 + n],
-            weights[j - 1],
-            ext[radius - j + 2 : radius - j + 2 + n],
-            ext[radius + j - 2 : radius + j - 2 + n],
-            weights[j - 2],
-            ext[radius - j + 3 : radius - j + 3 + n],
-            ext[radius + j - 3 : radius + j - 3 + n],
-            weights[j - 3],
-        )
+        a1, b1 = rows[taps[0, j], taps[2, j] :], rows[taps[1, j], taps[3, j] :]
+        a2, b2 = rows[taps[0, j - 1], taps[2, j - 1] :], rows[taps[1, j - 1], taps[3, j - 1] :]
+        a3, b3 = rows[taps[0, j - 2], taps[2, j - 2] :], rows[taps[1, j - 2], taps[3, j - 2] :]
+        a4, b4 = rows[taps[0, j - 3], taps[2, j - 3] :], rows[taps[1, j - 3], taps[3, j - 3] :]
+        w1, w2, w3, w4 = weights[j], weights[j - 1], weights[j - 2], weights[j - 3]
+        for i in range(n):
+            value = out[i]
+            value += (a1[i] + b1[i]) * w1
+            value += (a2[i] + b2[i]) * w2
+            value += (a3[i] + b3[i]) * w3
+            value += (a4[i] + b4[i]) * w4
+            out[i] = value
         j -= 4
     while j >= 1:
-        _add_tap(
-            out, ext[radius - j : radius - j + n], ext[radius + j : radius + j + n], weights[j]
-        )
+        a, b, w = rows[taps[0, j], taps[2, j] :], rows[taps[1, j], taps[3, j] :], weights[j]
+        for i in range(n):
+            out[i] += (a[i] + b[i]) * w
         j -= 1
 
 
-@cached_njit(nogil=True)
-def _extend(line, radius, ext):
-    """``ext`` = ``line`` with ``radius`` values on each side under scipy's ``reflect``."""
-    n = line.shape[0]
-    for i in range(n):
-        ext[radius + i] = line[i]
+@_helper
+def _reflect_ends(ext, radius, n):
+    """Extends the line ``ext[radius : radius + n]`` by ``radius`` values on each side under
+    scipy's ``reflect``."""
     for i in range(radius):
-        ext[i] = line[_reflect(i - radius, n)]
-        ext[radius + n + i] = line[_reflect(n + i, n)]
+        ext[i] = ext[radius + _reflect(i - radius, n)]
+        ext[radius + n + i] = ext[radius + _reflect(n + i, n)]
 
 
-@cached_njit(nogil=True)
-def fine_scale_band(plane, weights, fine, fine32, sums, y0, y1):
-    """``fine = plane - G * plane`` on rows ``[y0, y1)``, and its float32 copy ``fine32``
-    (unless ``fine32`` is a single row: then it is not written).
+# --- the fine-scale component, its energy and the Sobel edges ---------------------------------
+
+
+@cached_njit(nogil=True, error_model="numpy", no_cfunc_wrapper=True)
+def fine_scale_band(planes, fine_weights, weights, fine, fine32, energy, edges, sums, y0, y1):
+    """The fine-scale component ``h = plane - G_1 * plane`` of rows ``[y0, y1)``, its energy
+    ``G_2 * h**2`` and the plane's Sobel magnitude, in one pass over the rows.
+
+    ``fine``, ``fine32`` (``h`` in float32), ``energy`` (the Gaussian of
+    ``weights``) and ``edges`` (``skimage.filters.sobel``, ``reflect``) are
+    written where they have the plane's height; an array of one row stands
+    for a map not asked for. With the energy, ``h`` is made row by row into
+    a ring of ``h**2`` rows that the energy's Gaussian reads (scipy's order,
+    ``reflect``), the rows beyond the band included.
 
     ``sums[y]`` gets, over row y: the sum and the largest finite value of
-    ``fine**2``, the count of non-finite values of ``fine`` and the largest
-    finite ``|plane|``.
+    ``h**2``, the count of its non-finite values, the largest finite
+    ``|plane|``, the sum of ``energy[y]`` and the Sobel magnitude's min,
+    max and sum (the last four where those maps are made).
     """
-    width = plane.shape[1]
-    radius = weights.shape[0] - 1
-    column = np.empty(width)
-    ext = np.empty(width + 2 * radius)
-    smooth = np.empty(width)
-    lower = np.empty(radius + 1, dtype=np.int64)
-    upper = np.empty(radius + 1, dtype=np.int64)
-    copy32 = fine32.shape[0] == fine.shape[0]
-    for y in range(y0, y1):
-        for j in range(radius + 1):
-            lower[j] = _reflect(y - j, plane.shape[0])
-            upper[j] = _reflect(y + j, plane.shape[0])
-        _gauss_rows(plane, lower, upper, y, weights, column)
-        _extend(column, radius, ext)
-        _gauss_line(ext, radius, weights, smooth)
-        row = plane[y]
-        out = fine[y]
-        if copy32:
-            out32 = fine32[y]
-            for x in range(width):
-                value = row[x] - smooth[x]
-                out[x] = value
-                out32[x] = value
-        else:
-            for x in range(width):
-                out[x] = row[x] - smooth[x]
-        for x in range(width):
-            smooth[x] = out[x] * out[x]
-        sums[y, 0] = _sum(smooth)
-        _, largest, nonfinite = _finite_range(smooth)
-        sums[y, 1] = max(largest, 0.0)
-        sums[y, 2] = nonfinite
-        for x in range(width):
-            smooth[x] = abs(row[x])
-        sums[y, 3] = max(_finite_range(smooth)[1], 0.0)
-
-
-@cached_njit(nogil=True)
-def _fine_row(plane, weights, y, lower, upper, column, ext, smooth, out):
-    """Row y of ``h = plane - G * plane`` into ``out``, as :func:`fine_scale_band` computes it."""
-    height, width = plane.shape
-    radius = weights.shape[0] - 1
-    for j in range(radius + 1):
-        lower[j] = _reflect(y - j, height)
-        upper[j] = _reflect(y + j, height)
-    _gauss_rows(plane, lower, upper, y, weights, column)
-    _extend(column, radius, ext)
-    _gauss_line(ext, radius, weights, smooth)
-    row = plane[y]
-    for x in range(width):
-        out[x] = row[x] - smooth[x]
-
-
-@cached_njit(nogil=True)
-def energy_band(plane, fine_weights, weights, energy, edges, sums, y0, y1):
-    """The energy ``G * h**2`` of rows ``[y0, y1)`` without keeping ``h``, and the Sobel
-    magnitude ``edges`` (:func:`sobel_band`): an original's maps in one pass.
-
-    ``h`` is made row by row (:func:`fine_scale_band`'s operations) into a
-    ring of ``h**2`` rows that the Gaussian of ``weights`` reads (scipy's
-    order, ``reflect``, as :func:`smooth_band`): the same floats as
-    ``fine_scale_band`` then ``smooth_band``'s ``MODE_ENERGY``. ``sums[y]``
-    gets :func:`fine_scale_band`'s four sums of row y, the sum of
-    ``energy[y]``, then :func:`sobel_band`'s three sums of ``edges[y]``.
-    """
-    height, width = plane.shape
+    height, width = _plane_shape(planes)
     fine_radius = fine_weights.shape[0] - 1
     radius = weights.shape[0] - 1
-    ring_rows = 2 * radius + 1
-    squares = np.empty((ring_rows, width))
-    virtual_row = np.full(ring_rows, -(2 * height + ring_rows), dtype=np.int64)
-    column = np.empty(width)
-    fine_ext = np.empty(width + 2 * fine_radius)
-    smooth = np.empty(width)
-    fine = np.empty(width)
-    ext = np.empty(width + 2 * radius)
-    lower = np.empty(max(radius, fine_radius) + 1, dtype=np.int64)
-    upper = np.empty(max(radius, fine_radius) + 1, dtype=np.int64)
+    keep_fine = fine.shape[0] == height
+    keep_fine32 = fine32.shape[0] == height
+    with_energy = energy.shape[0] == height
+    with_edges = edges.shape[0] == height
+    reach = radius if with_energy else 0  # the rows of h the row's energy reads
+    # the plane's rows v that those rows of h read, by virtual row (read reflected), in
+    # slot v % (rows of the ring); and the rows of h**2, likewise
+    plane_rows = np.empty((2 * (reach + fine_radius) + 1, width))
+    squares = np.empty((2 * radius + 1, width))
+    virtual_rows = np.empty(plane_rows.shape[0] + squares.shape[0], dtype=np.int64)
+    for slot in range(virtual_rows.shape[0]):
+        virtual_rows[slot] = -(2 * height + virtual_rows.shape[0])  # no row
+    plane_virtual = virtual_rows[: plane_rows.shape[0]]
+    square_virtual = virtual_rows[plane_rows.shape[0] :]
+    # :func:`_gauss`'s taps down the rings' columns, and along h's and h**2's extended lines
+    taps = np.empty((3, 4, max(radius, fine_radius) + 1), dtype=np.int64)
+    for j in range(taps.shape[2]):
+        for k in range(3):
+            taps[k, 0, j] = 0
+            taps[k, 1, j] = 0
+        taps[0, 2, j] = 0
+        taps[0, 3, j] = 0
+        taps[1, 2, j] = fine_radius - j
+        taps[1, 3, j] = fine_radius + j
+        taps[2, 2, j] = radius - j
+        taps[2, 3, j] = radius + j
+    ring_taps = taps[0]
+    lines = np.empty((3, width + 2 * max(radius, fine_radius) + 2))
+    ext = lines[0]  # a column pass's output, extended for the pass along the rows
+    smooth = lines[1, :width]
+    line = lines[2, :width]
     padded = np.empty((3, width + 2))
+    first = np.int64(0)  # a literal 0 would make numba compile _load_row once more for it
     for y in range(y0, y1):
-        _sobel_row(plane, y, padded, column, smooth, edges[y], sums[y, 5:])
-        for v in range(y - radius, y + radius + 1):  # the rows the window reads, reflected
-            slot = v % ring_rows
-            if virtual_row[slot] == v:
+        for v in range(y - reach, y + reach + 1):
+            slot = v % squares.shape[0]
+            if square_virtual[slot] == v:
                 continue
+            # row ``row`` of h: the plane's rows row - r .. row + r smoothed, down then across
             row = _reflect(v, height)
-            _fine_row(plane, fine_weights, row, lower, upper, column, fine_ext, smooth, fine)
+            for u in range(row - fine_radius, row + fine_radius + 1):
+                if plane_virtual[u % plane_rows.shape[0]] != u:
+                    _load_row(planes, _reflect(u, height), first, width,
+                              plane_rows[u % plane_rows.shape[0]])  # fmt: skip
+                    plane_virtual[u % plane_rows.shape[0]] = u
+            for j in range(fine_radius + 1):
+                ring_taps[0, j] = (row - j) % plane_rows.shape[0]
+                ring_taps[1, j] = (row + j) % plane_rows.shape[0]
+            _gauss(plane_rows, ring_taps, fine_weights, ext[fine_radius : fine_radius + width])
+            _reflect_ends(ext, fine_radius, width)
+            _gauss(lines[0:1], taps[1], fine_weights, smooth)
+            tones = plane_rows[row % plane_rows.shape[0]]
             square = squares[slot]
+            own = v == row and y0 <= row < y1  # not a row of another band, nor a reflection
+            out = fine[row] if own and keep_fine else line
             for x in range(width):
-                square[x] = fine[x] * fine[x]
-            virtual_row[slot] = v
-            if v == row and y0 <= row < y1:
-                sums[row, 0] = _sum(square)
-                _, largest, nonfinite = _finite_range(square)
-                sums[row, 1] = max(largest, 0.0)
-                sums[row, 2] = nonfinite
-                tones = plane[row]
+                value = tones[x] - smooth[x]
+                out[x] = value
+                square[x] = value * value
+            square_virtual[slot] = v
+            if not own:
+                continue
+            if keep_fine32:
+                out32 = fine32[row]
                 for x in range(width):
-                    smooth[x] = abs(tones[x])
-                sums[row, 3] = max(_finite_range(smooth)[1], 0.0)
-        for j in range(radius + 1):
-            lower[j] = (y - j) % ring_rows
-            upper[j] = (y + j) % ring_rows
-        _gauss_rows(squares, lower, upper, y % ring_rows, weights, column)
-        _extend(column, radius, ext)
-        _gauss_line(ext, radius, weights, energy[y])
-        sums[y, 4] = _sum(energy[y])
+                    out32[x] = out[x]
+            _, largest, nonfinite = _finite_range(square)
+            sums[row, 0] = _sum(square)
+            sums[row, 1] = max(largest, 0.0)
+            sums[row, 2] = nonfinite
+            for x in range(width):
+                smooth[x] = abs(tones[x])
+            sums[row, 3] = max(_finite_range(smooth)[1], 0.0)
+        if with_edges:
+            # the plane's rows y - 1, y, y + 1 (in the ring: h's row y read them), with one
+            # column a side (reflect: column -1 is column 0, column W is W - 1)
+            for k in range(3):
+                tones = plane_rows[(y - 1 + k) % plane_rows.shape[0]]
+                for x in range(width):
+                    padded[k, x + 1] = tones[x]
+                padded[k, 0] = tones[0]
+                padded[k, width + 1] = tones[width - 1]
+            up = padded[0]
+            mid = padded[1]
+            down = padded[2]
+            out = edges[y]
+            root2 = np.sqrt(2.0)
+            for x in range(width):
+                d_rows = 0.25 * (
+                    (down[x] + 2.0 * down[x + 1] + down[x + 2])
+                    - (up[x] + 2.0 * up[x + 1] + up[x + 2])
+                )
+                d_columns = 0.25 * (
+                    (up[x + 2] + 2.0 * mid[x + 2] + down[x + 2]) - (up[x] + 2.0 * mid[x] + down[x])
+                )
+                out[x] = np.sqrt(d_rows * d_rows + d_columns * d_columns) / root2
+            sums[y, 5], sums[y, 6], _ = _finite_range(out)
+            sums[y, 7] = _sum(out)
+        if with_energy:
+            for j in range(radius + 1):
+                ring_taps[0, j] = (y - j) % squares.shape[0]
+                ring_taps[1, j] = (y + j) % squares.shape[0]
+            _gauss(squares, ring_taps, weights, ext[radius : radius + width])
+            _reflect_ends(ext, radius, width)
+            _gauss(lines[0:1], taps[2], weights, energy[y])
+            sums[y, 4] = _sum(energy[y])
 
 
-@cached_njit(nogil=True)
-def _source_row(fine, plane, mode, dy, dx, half, row, s0, s1, out):
-    """Row ``row``, columns ``[s0, s1)``, of the map that the wall pass smooths.
-
-    ``mode`` MODE_LOCAL_MEAN: the plane itself; ``dy == dx == 0``: ``h**2``;
-    otherwise ``half * (h(p) h(p + d) + h(p - d) h(p))`` (``half`` = 1/2 in
-    the arrays' precision) with the lags
-    wrapping around the plane (``np.roll``), as the reference computes it.
-    """
-    height, width = fine.shape
-    if mode == MODE_LOCAL_MEAN:
-        source = plane[row, s0:s1]
-        for i in range(s1 - s0):
-            out[i] = source[i]
-        return
-    centre = fine[row]
-    if dy == 0 and dx == 0:
-        source = centre[s0:s1]
-        for i in range(s1 - s0):
-            out[i] = source[i] * source[i]
-        return
-    ahead = fine[(row + dy) % height]
-    behind = fine[(row - dy) % height]
-    reach = abs(dx)
-    e1 = min(max(reach, s0), s1)
-    e2 = max(min(width - reach, s1), e1)
-    for x in range(s0, e1):
-        out[x - s0] = half * (
-            centre[x] * ahead[(x + dx) % width] + behind[(x - dx) % width] * centre[x]
-        )
-    if e2 > e1:
-        middle = centre[e1:e2]
-        ahead_middle = ahead[e1 + dx : e2 + dx]
-        behind_middle = behind[e1 - dx : e2 - dx]
-        out_middle = out[e1 - s0 : e2 - s0]
-        for i in range(e2 - e1):
-            out_middle[i] = half * (middle[i] * ahead_middle[i] + behind_middle[i] * middle[i])
-    for x in range(e2, s1):
-        out[x - s0] = half * (
-            centre[x] * ahead[(x + dx) % width] + behind[(x - dx) % width] * centre[x]
-        )
+# --- the wall map -----------------------------------------------------------------------------
 
 
-@cached_njit(nogil=True)
-def _smooth_block(
-    fine, plane, mode, dy, dx, half, weights, b0, b1, x0, x1, ring, column, ext, result, needed
+@cached_njit(nogil=True, error_model="numpy", no_cfunc_wrapper=True)
+def wall_band(
+    fine, weights, energy_floor2, along_threshold, alternation_threshold, energy, flags, y0, y1
 ):
-    """``result[y - b0, x - x0]`` = Gaussian of one source map on rows ``[b0, b1)``, columns ``[x0, x1)``.
+    """The wall map ``flags`` on rows ``[y0, y1)``, from ``h`` (``fine``) and its energy
+    ``E = G * h**2`` (every row: :func:`fine_scale_band`'s); returns the count of walls.
 
-    The source rows (:func:`_source_row`) go through a ring buffer of
-    ``2 r + 1`` rows; axis 0 first, then axis 1, ``reflect`` on both. Rows y
-    with ``needed[y - b0]`` False are left as they were.
+    The 12 lag correlations ``C(d) = G * ((h(p) h(p + d) + h(p - d) h(p)) / 2) / E``, the
+    lags wrapping around the plane (``np.roll``), are smoothed in float64 as scipy smooths
+    (axis 0, then axis 1, ``reflect``, the same operations in the same order) and divided
+    by ``E`` (at least 1e-12): the reference's floats, so its wall map. They are smoothed in
+    column tiles of ``X_TILE`` and blocks of ``LAG_BLOCK`` rows, each map on the rows where
+    some pixel's decision reads it: a pixel above the energy floor is on a wall where, for a
+    direction f with normal g, ``C(u_f) > along`` and (``C(u_g) < -alternation`` and
+    ``C(2 u_g) > alternation``, or ``C(2 u_g) < -alternation`` and ``C(4 u_g) >
+    alternation``), the maps read in this order.
     """
     height, width = fine.shape
-    radius = weights.shape[0] - 1
-    ring_rows = 2 * radius + 1
-    tile = x1 - x0
-    s0 = max(0, x0 - radius)
-    s1 = min(width, x1 + radius)
-    span = s1 - s0
-    interior = x0 - radius >= 0 and x1 + radius <= width
-    rows = ring  # whole rows: a column slice would lose numba's C layout (and SIMD)
-    col = column[:span]
-    lower = np.empty(radius + 1, dtype=np.int64)
-    upper = np.empty(radius + 1, dtype=np.int64)
-    for v in range(b0 - radius, b0 + radius):
-        _source_row(
-            fine, plane, mode, dy, dx, half, _reflect(v, height), s0, s1, rows[v % ring_rows]
-        )
-    for y in range(b0, b1):
-        v = y + radius
-        _source_row(
-            fine, plane, mode, dy, dx, half, _reflect(v, height), s0, s1, rows[v % ring_rows]
-        )
-        if not needed[y - b0]:
-            continue
-        for j in range(radius + 1):
-            lower[j] = (y - j) % ring_rows
-            upper[j] = (y + j) % ring_rows
-        _gauss_rows(rows, lower, upper, y % ring_rows, weights, col)
-        out = result[y - b0, :tile]
-        if interior:
-            _gauss_line(col, radius, weights, out)
-        else:
-            for k in range(tile + 2 * radius):
-                x = x0 - radius + k
-                if x < 0 or x >= width:
-                    x = _reflect(x, width)
-                ext[k] = col[x - s0]
-            _gauss_line(ext[: tile + 2 * radius], radius, weights, out)
-
-
-@cached_njit(nogil=True)
-def local_mean_band(plane, weights, where, flags, y0, y1):
-    """``flags = plane > G * plane`` (scipy's Gaussian of ``weights``, ``reflect``: its
-    floats) on rows ``[y0, y1)``, at the True pixels of ``where``; False on the others.
-
-    Axis 0 first (a ring of rows, as :func:`_smooth_block`), on the rows of
-    the wall pass's column tiles (``X_TILE``) that hold a True pixel of
-    ``where``; then axis 1 at those pixels only (:func:`_gauss_at_pixel`,
-    the same operations in the same order as :func:`_gauss_line`).
-    """
-    height, width = plane.shape
     radius = weights.shape[0] - 1
     ring_rows = 2 * radius + 1
     span = X_TILE + 2 * radius
-    ring = np.empty((ring_rows, span))
-    column = np.empty(span)
-    ext = np.empty(span)
-    needed = np.empty(Y_BLOCK, dtype=np.bool_)
-    lower = np.empty(radius + 1, dtype=np.int64)
-    upper = np.empty(radius + 1, dtype=np.int64)
-    no_lag = LAG_DY[0]  # not a compile-time constant (see smooth_band)
-    mode = no_lag + MODE_LOCAL_MEAN
+    ring = np.empty((ring_rows, span))  # rows of a lag product, by virtual row
+    lines = np.empty((2, span))  # a column pass's output, its extension
+    lags = np.empty((12, LAG_BLOCK, X_TILE))  # the smoothed products of a block
+    textured = np.empty(LAG_BLOCK, dtype=np.bool_)  # rows with a pixel above the energy floor
+    needed = np.empty(LAG_BLOCK, dtype=np.bool_)  # rows whose pixels read the map smoothed
+    taps = np.empty((2, 4, radius + 1), dtype=np.int64)  # :func:`_gauss`'s: down, along
+    for j in range(radius + 1):
+        taps[0, 2, j] = 0
+        taps[0, 3, j] = 0
+        taps[1, 0, j] = 0
+        taps[1, 1, j] = 0
+        taps[1, 2, j] = radius - j
+        taps[1, 3, j] = radius + j
+    count = 0
     for x0 in range(0, width, X_TILE):
         x1 = min(width, x0 + X_TILE)
         tile = x1 - x0
         s0 = max(0, x0 - radius)
         s1 = min(width, x1 + radius)
         interior = x0 - radius >= 0 and x1 + radius <= width
-        col = column[: s1 - s0]
+        column = lines[0, : s1 - s0]
+        ext = lines[1, : tile + 2 * radius]
+        for b0 in range(y0, y1, LAG_BLOCK):
+            b1 = min(y1, b0 + LAG_BLOCK)
+            any_textured = False
+            for y in range(b0, b1):
+                found = False
+                for x in range(x0, x1):
+                    if energy[y, x] > energy_floor2:
+                        found = True
+                        break
+                textured[y - b0] = found
+                any_textured = any_textured or found
+            if not any_textured:
+                for y in range(b0, b1):
+                    for x in range(x0, x1):
+                        flags[y, x] = False
+                continue
+            # the maps of lag 1, then 2, then 4: lag 2 of family g is read where C > along
+            # along the direction whose normal is g, lag 4 where C(2 u_g) < -alternation too
+            for step in range(3):
+                for family in range(4):
+                    m = 3 * family + step
+                    along_map = 3 * NORMAL_FAMILY[family]
+                    any_row = False
+                    for y in range(b0, b1):
+                        found = textured[y - b0] and step == 0
+                        for i in range(tile if textured[y - b0] and step > 0 else 0):
+                            e = energy[y, x0 + i]
+                            if not e > energy_floor2:
+                                continue
+                            e = e if not e < 1e-12 else 1e-12
+                            if lags[along_map, y - b0, i] / e > along_threshold and (
+                                step == 1 or lags[m - 1, y - b0, i] / e < -alternation_threshold
+                            ):
+                                found = True
+                                break
+                        needed[y - b0] = found
+                        any_row = any_row or found
+                    if not any_row:
+                        continue
+                    dy = LAG_DY[m]
+                    dx = LAG_DX[m]
+                    e1 = min(max(abs(dx), s0), s1)
+                    e2 = max(min(width - abs(dx), s1), e1)
+                    for v in range(b0 - radius, b1 + radius):
+                        row = _reflect(v, height)
+                        out = ring[v % ring_rows]
+                        centre = fine[row]
+                        ahead = fine[(row + dy) % height]
+                        behind = fine[(row - dy) % height]
+                        # the products' rows: columns [e1, e2) need no modulo, the others wrap
+                        for k in range((e1 - s0) + (s1 - e2)):
+                            x = s0 + k if k < e1 - s0 else e2 + k - (e1 - s0)
+                            out[x - s0] = 0.5 * (
+                                centre[x] * ahead[(x + dx) % width]
+                                + behind[(x - dx) % width] * centre[x]
+                            )
+                        if e2 > e1:
+                            middle = centre[e1:e2]
+                            ahead_middle = ahead[e1 + dx : e2 + dx]
+                            behind_middle = behind[e1 - dx : e2 - dx]
+                            out_middle = out[e1 - s0 : e2 - s0]
+                            for i in range(e2 - e1):
+                                out_middle[i] = 0.5 * (
+                                    middle[i] * ahead_middle[i] + behind_middle[i] * middle[i]
+                                )
+                        y = v - radius  # the row the ring now holds every row of
+                        if y < b0 or not needed[y - b0]:
+                            continue
+                        for j in range(radius + 1):
+                            taps[0, 0, j] = (y - j) % ring_rows
+                            taps[0, 1, j] = (y + j) % ring_rows
+                        _gauss(ring, taps[0], weights, column)
+                        line = lines[0:1]
+                        if not interior:
+                            for k in range(tile + 2 * radius):
+                                x = x0 - radius + k
+                                if x < 0 or x >= width:
+                                    x = _reflect(x, width)
+                                ext[k] = column[x - s0]
+                            line = lines[1:2]
+                        _gauss(line, taps[1], weights, lags[m, y - b0, :tile])
+            for y in range(b0, b1):
+                for i in range(tile):
+                    e = energy[y, x0 + i]
+                    wall = False
+                    if e > energy_floor2:
+                        e = e if not e < 1e-12 else 1e-12
+                        for direction in range(4):
+                            if not lags[3 * direction, y - b0, i] / e > along_threshold:
+                                continue
+                            n = 3 * NORMAL_FAMILY[direction]
+                            c2 = lags[n + 1, y - b0, i] / e
+                            if (
+                                lags[n, y - b0, i] / e < -alternation_threshold
+                                and c2 > alternation_threshold
+                            ) or (
+                                c2 < -alternation_threshold
+                                and lags[n + 2, y - b0, i] / e > alternation_threshold
+                            ):
+                                wall = True
+                                break
+                    flags[y, x0 + i] = wall
+                    count += wall
+    return count
+
+
+# --- the local mean at the walls ---------------------------------------------------------------
+
+
+@cached_njit(nogil=True, error_model="numpy", no_cfunc_wrapper=True)
+def local_mean_band(planes, weights, where, flags, y0, y1):
+    """``flags = plane > G * plane`` (scipy's Gaussian of ``weights``, ``reflect``: its
+    floats) on rows ``[y0, y1)``, at the True pixels of ``where``; False on the others.
+
+    Axis 0 first (a ring of rows, as :func:`wall_band`), in blocks of
+    ``Y_BLOCK`` rows of column tiles (``X_TILE``), on the rows that hold a
+    True pixel of ``where`` (blocks without one are skipped); then axis 1 at
+    those pixels only (the operations of :func:`_gauss` along a line, in its order).
+    """
+    height, width = _plane_shape(planes)
+    radius = weights.shape[0] - 1
+    ring_rows = 2 * radius + 1
+    span = X_TILE + 2 * radius
+    ring = np.empty((ring_rows, span))
+    lines = np.empty((2, span))
+    column = lines[0]
+    ext = lines[1]
+    taps = np.empty((1, 4, radius + 1), dtype=np.int64)  # :func:`_gauss`'s, down the ring
+    for j in range(radius + 1):
+        for k in range(4):
+            taps[0, k, j] = 0
+    ring_taps = taps[0]
+    needed = np.empty(Y_BLOCK, dtype=np.bool_)
+    for x0 in range(0, width, X_TILE):
+        x1 = min(width, x0 + X_TILE)
+        tile = x1 - x0
+        s0 = max(0, x0 - radius)
+        s1 = min(width, x1 + radius)
+        interior = x0 - radius >= 0 and x1 + radius <= width
         for b0 in range(y0, y1, Y_BLOCK):
             b1 = min(y1, b0 + Y_BLOCK)
             any_row = False
             for y in range(b0, b1):
-                needed[y - b0] = _any_above(where[y, x0:x1], False)
-                any_row = any_row or needed[y - b0]
-            flags[b0:b1, x0:x1] = False
-            if not any_row:
-                continue
-            for v in range(b0 - radius, b0 + radius):
-                _source_row(
-                    plane, plane, mode, no_lag, no_lag, 0.5, _reflect(v, height), s0, s1,
-                    ring[v % ring_rows],
-                )  # fmt: skip
-            for y in range(b0, b1):
-                v = y + radius
-                _source_row(
-                    plane, plane, mode, no_lag, no_lag, 0.5, _reflect(v, height), s0, s1,
-                    ring[v % ring_rows],
-                )  # fmt: skip
-                if not needed[y - b0]:
+                row = flags[y]
+                for x in range(x0, x1):
+                    row[x] = False
+                found = False
+                walls = where[y]
+                for x in range(x0, x1):
+                    if walls[x]:
+                        found = True
+                        break
+                needed[y - b0] = found
+                any_row = any_row or found
+            for v in range(b0 - radius, b1 + radius if any_row else b0 - radius):
+                _load_row(planes, _reflect(v, height), s0, s1, ring[v % ring_rows])
+                y = v - radius  # the row the ring now holds every row of
+                if y < b0 or not needed[y - b0]:
                     continue
                 for j in range(radius + 1):
-                    lower[j] = (y - j) % ring_rows
-                    upper[j] = (y + j) % ring_rows
-                _gauss_rows(ring, lower, upper, y % ring_rows, weights, col)
-                line = col
+                    ring_taps[0, j] = (y - j) % ring_rows
+                    ring_taps[1, j] = (y + j) % ring_rows
+                _gauss(ring, ring_taps, weights, column[: s1 - s0])
+                line = column
                 if not interior:
                     for k in range(tile + 2 * radius):
                         x = x0 - radius + k
                         if x < 0 or x >= width:
                             x = _reflect(x, width)
-                        ext[k] = col[x - s0]
+                        ext[k] = column[x - s0]
                     line = ext
-                walls = where[y, x0:x1]
-                source = plane[y, x0:x1]
-                out = flags[y, x0:x1]
+                tones = ring[y % ring_rows]
                 for i in range(tile):
-                    if walls[i]:
-                        out[i] = source[i] > _gauss_at_pixel(line, i, weights)
-
-
-@cached_njit(nogil=True)
-def _gauss_at_pixel(line, i, weights):
-    """:func:`_gauss_line`'s output ``i``: ``line[r + i] w0``, then ``+= (line[r + i - j] +
-    line[r + i + j]) w[j]`` for j = r .. 1, in this order (the same float)."""
-    radius = weights.shape[0] - 1
-    centre = radius + i
-    value = line[centre] * weights[0]
-    for j in range(radius, 0, -1):
-        value += (line[centre - j] + line[centre + j]) * weights[j]
-    return value
-
-
-#: Bound on the float32 error of a smoothed lag product, in units of ``G * |product|``:
-#: the products and both 1-D passes accumulate about 28 roundings of 2**-24; twice that.
-FLOAT32_ERROR = 64 * 2.0**-24
-#: Pixels this close to an edge get a bound that holds there too (lags wrap, windows reflect).
-EDGE = 12
-
-
-@cached_njit(nogil=True, error_model="numpy")
-def smooth_band(
-    fine,
-    fine32,
-    mode,
-    weights,
-    weights32,
-    energy_floor2,
-    along_threshold,
-    alternation_threshold,
-    largest_square,
-    lag_scale,
-    energy,
-    flags,
-    sums,
-    y0,
-    y1,
-):
-    """The wall pass (or one of its parts) on rows ``[y0, y1)``.
-
-    ``MODE_WALLS``: ``energy = G * h**2`` and ``flags`` = the wall map;
-    ``MODE_ENERGY``: ``energy`` only (:func:`local_mean_band` makes ``MODE_LOCAL_MEAN``'s).
-    Returns the count of True flags and the number of pixels whose wall
-    decision was recomputed exactly; ``sums[y, 0]`` gets the sum of ``energy[y]``.
-
-    The energy and the local mean are scipy's Gaussian (``reflect``, axis 0
-    then axis 1, the same operations in the same order: the same floats).
-    The 12 lag products are smoothed in float32 from ``fine32`` (``h`` times
-    a power of two whose square is ``1 / lag_scale``, to keep float32 away
-    from overflow); their
-    correlations ``C = S / E`` decide the wall map wherever they are
-    farther from the thresholds than the float32 error can reach, a bound
-    ``FLOAT32_ERROR * B / E`` with ``B >= G * |product|`` (:func:`_margins`); the other
-    pixels are recomputed exactly in float64 (:func:`_exact_smoothed`), as
-    the reference computes them. The wall map is therefore the reference's.
-
-    ``|h(p) h(p + d) + h(p - d) h(p)| / 2 <= h(p)**2 / 2 + h(p + d)**2 / 4 + h(p - d)**2 / 4``,
-    so ``G * |product| <= E(p) / 2 + E(p + d) / 4 + E(p - d) / 4`` away from
-    the edges (``EDGE`` pixels: there the shifted window is the window at
-    p + d), and ``<= E(p) / 2 + max(h**2) / 2`` everywhere.
-    """
-    height, width = fine.shape
-    radius = weights.shape[0] - 1
-    span = X_TILE + 2 * radius
-    ring = np.empty((2 * radius + 1, span))
-    column = np.empty(span)
-    ext = np.empty(span)
-    result = np.empty((Y_BLOCK, X_TILE))
-    every_row = np.ones(Y_BLOCK, dtype=np.bool_)
-    # integers that are not compile-time constants: a constant argument would make numba
-    # compile a helper once more for it
-    no_lag = LAG_DY[0]
-    energy_mode = mode - mode + MODE_ENERGY
-    count = 0
-    exact = 0
-    half = 0.5
-    # the energy of the band, and (for the bound) of the 4 rows on each side (the longest
-    # lag), which belong to the neighbouring bands: in ``halo`` (rows e0 + k and y1 + k)
-    reach = 4
-    e0 = max(0, y0 - reach) if mode == MODE_WALLS else y0
-    e1 = min(height, y1 + reach) if mode == MODE_WALLS else y1
-    halo = np.empty((2 * reach, width))
-    for x0 in range(0, width, X_TILE):
-        x1 = min(width, x0 + X_TILE)
-        for b0 in range(e0, e1, Y_BLOCK):
-            b1 = min(e1, b0 + Y_BLOCK)
-            _smooth_block(
-                fine,
-                fine,  # the plane: not read in these modes
-                energy_mode,
-                no_lag,
-                no_lag,
-                half,
-                weights,
-                b0,
-                b1,
-                x0,
-                x1,
-                ring,
-                column,
-                ext,
-                result,
-                every_row,
-            )
-            for y in range(b0, b1):
-                row = _energy_row(energy, halo, e0, y0, y1, y)
-                row[x0:x1] = result[y - b0, : x1 - x0]
-    for y in range(y0, y1):
-        sums[y, 0] = _sum(energy[y])
-    if mode == MODE_ENERGY:
-        return count, exact
-    ring32 = np.empty((2 * radius + 1, span), dtype=np.float32)
-    column32 = np.empty(span, dtype=np.float32)
-    ext32 = np.empty(span, dtype=np.float32)
-    lags = np.empty((13, LAG_BLOCK, X_TILE), dtype=np.float32)
-    textured = np.empty(LAG_BLOCK, dtype=np.bool_)
-    needed = np.empty(LAG_BLOCK, dtype=np.bool_)
-    inverse = np.empty((LAG_BLOCK, X_TILE))
-    margins = np.empty((LAG_BLOCK, X_TILE))
-    half32 = np.float32(0.5)
-    for x0 in range(0, width, X_TILE):
-        x1 = min(width, x0 + X_TILE)
-        tile = x1 - x0
-        for b0 in range(y0, y1, LAG_BLOCK):
-            b1 = min(y1, b0 + LAG_BLOCK)
-            # rows of the tile with no pixel above the energy floor have no wall: skipped
-            any_textured = False
-            for y in range(b0, b1):
-                textured[y - b0] = _any_above(energy[y, x0:x1], energy_floor2)
-                any_textured = any_textured or textured[y - b0]
-            if not any_textured:
-                flags[b0:b1, x0:x1] = False
-                continue
-            _margins(energy, halo, e0, y0, y1, b0, b1, x0, x1, largest_square, inverse, margins)
-            # the lag maps in the order the decision reads them, each on the rows where some
-            # pixel's decision reads it (see _needed_rows): the lag-1 maps, then lag 2, lag 4
-            for step in range(3):
-                for family in range(4):
-                    m = 1 + 3 * family + step
-                    if step == 0:
-                        needed[:] = textured
-                    elif not _needed_rows(
-                        lags,
-                        energy,
-                        inverse,
-                        margins,
-                        b0,
-                        b1,
-                        x0,
-                        x1,
-                        family,
-                        step,
-                        energy_floor2,
-                        lag_scale,
-                        along_threshold,
-                        alternation_threshold,
-                        needed,
-                    ):
-                        continue
-                    _smooth_block(
-                        fine32,
-                        fine,  # the plane: not read in this mode
-                        mode,
-                        LAG_DY[m],
-                        LAG_DX[m],
-                        half32,
-                        weights32,
-                        b0,
-                        b1,
-                        x0,
-                        x1,
-                        ring32,
-                        column32,
-                        ext32,
-                        lags[m],
-                        needed,
-                    )
-            for y in range(b0, b1):
-                row_energy = energy[y, x0:x1]
-                row_inverse = inverse[y - b0]
-                row_margin = margins[y - b0]
-                out = flags[y, x0:x1]
-                for i in range(tile):
-                    e = row_energy[i]
-                    wall = False
-                    if e > energy_floor2:
-                        decided, wall = _decide(
-                            lags,
-                            y - b0,
-                            i,
-                            row_inverse[i] * lag_scale,
-                            row_margin[i],
-                            along_threshold,
-                            alternation_threshold,
-                        )
-                        if not decided:
-                            wall = _exact_wall(
-                                fine, weights, y, x0 + i, e, along_threshold, alternation_threshold
-                            )
-                            exact += 1
-                    out[i] = wall
-                    count += wall
-    return count, exact
-
-
-@cached_njit(nogil=True, error_model="numpy")
-def _needed_rows(
-    lags,
-    energy,
-    inverse,
-    margins,
-    b0,
-    b1,
-    x0,
-    x1,
-    family,
-    step,
-    energy_floor2,
-    lag_scale,
-    along,
-    alternation,
-    needed,
-):
-    """Rows of a block where :func:`_decide` reads the lag map of ``family`` at lag ``2**step``.
-
-    That map (lag ``2 u_g`` or ``4 u_g``, g = ``family``) is read only for
-    the direction f whose normal is g, at pixels above the energy floor
-    where ``C(u_f) > along`` is not ruled out; lag ``4 u_g`` only where, in
-    addition, the first alternation (lags ``u_g``, ``2 u_g``) is not settled
-    true and ``C(2 u_g) < -alternation`` is not ruled out. The maps these
-    tests read are those of smaller lags, already smoothed on these rows.
-    Sets ``needed[y - b0]`` and returns whether any row is needed.
-    """
-    direction = NORMAL_FAMILY[family]
-    along_map = 1 + 3 * direction
-    n = 1 + 3 * family
-    any_row = False
-    for y in range(b0, b1):
-        row = y - b0
-        row_energy = energy[y, x0:x1]
-        found = False
-        for i in range(x1 - x0):
-            if not row_energy[i] > energy_floor2:
-                continue
-            scale = inverse[row, i] * lag_scale
-            margin = margins[row, i]
-            if _compare(lags[along_map, row, i] * scale, along, margin) == 0:
-                continue
-            if step == 1:
-                found = True
-                break
-            first = _compare(lags[n, row, i] * scale, -alternation, margin)
-            c2 = lags[n + 1, row, i] * scale
-            if first != 0:
-                first = _and(first, _compare(c2, alternation, margin))
-            if first != 1 and _compare(c2, -alternation, margin) != 0:
-                found = True
-                break
-        needed[row] = found
-        any_row = any_row or found
-    return any_row
-
-
-@cached_njit(nogil=True)
-def _compare(c, threshold, margin):
-    """Whether ``C > threshold``: 0 (no), 1 (yes), or 2 when ``C``'s error bound leaves it open.
-
-    A negative ``threshold`` -t asks whether ``C < -t`` instead.
-    """
-    if not abs(c - threshold) > margin:  # NaN included
-        return 2
-    if threshold < 0:
-        return 1 if c < threshold else 0
-    return 1 if c > threshold else 0
-
-
-@cached_njit(nogil=True, error_model="numpy")
-def _energy_row(energy, halo, e0, y0, y1, y):
-    """Row y of the energy: the band's own rows ``[y0, y1)`` or the halo's."""
-    if y < y0:
-        return halo[y - e0]
-    if y >= y1:
-        return halo[halo.shape[0] // 2 + y - y1]
-    return energy[y]
-
-
-@cached_njit(nogil=True, inline="always")
-def _larger(a, b):
-    """``max(a, b)`` (``a`` if ``b`` is NaN), in a form the compiler turns into SIMD."""
-    return b if b > a else a
-
-
-@cached_njit(nogil=True, inline="always")
-def _larger_or_nan(a, b):
-    """``max(a, b)``, NaN if either is NaN, in a form the compiler turns into SIMD."""
-    return b if (b > a or b != b) else a
-
-
-#: Rows and columns of the groups of pixels that share one bound in :func:`_margins`.
-MARGIN_GROUP = 4
-
-
-@cached_njit(nogil=True, error_model="numpy")
-def _margins(energy, halo, e0, y0, y1, b0, b1, x0, x1, largest_square, inverse, margins):
-    """``1 / E`` and the float32 error bound of the correlations, for a block.
-
-    ``G * |product| <= E(p) / 2 + max(E(p + d), E(p - d)) / 2`` away from the
-    edges, bounded over every lag (|dy|, |dx| <= 4) by the largest energy
-    around p; ``<= E(p) / 2 + max(h**2) / 2`` everywhere. Pixels share that
-    largest energy by groups of ``MARGIN_GROUP`` x ``MARGIN_GROUP``: the
-    largest over the group grown by 4 on every side (12 x 12 pixels, the
-    9 x 9 neighbourhood of each of its pixels and a little more), NaN if
-    any is NaN. A looser bound only sends a few more pixels to the exact
-    decision: the wall map does not change.
-    """
-    height, width = energy.shape
-    reach = 4
-    group = MARGIN_GROUP
-    tile = x1 - x0
-    lo = max(0, x0 - reach)
-    hi = min(width, x1 + reach)
-    column_max = np.empty(hi - lo)
-    largest = np.empty(tile)
-    # inner columns of the tile: x in [i0 + x0, i1 + x0), their 9 neighbours in [lo, hi)
-    i0 = min(max(EDGE - x0, 0), tile)
-    i1 = max(min(width - EDGE - x0, tile), i0)
-    for g0 in range(b0, b1, group):
-        g1 = min(b1, g0 + group)
-        for i in range(tile):
-            largest[i] = largest_square
-        if g0 - reach >= EDGE and g1 + reach <= height - EDGE and i1 > i0:
-            first = _energy_row(energy, halo, e0, y0, y1, g0 - reach)[lo:hi]
-            for k in range(hi - lo):
-                column_max[k] = first[k]
-            for r in range(g0 - reach + 1, g1 + reach):
-                other = _energy_row(energy, halo, e0, y0, y1, r)[lo:hi]
-                for k in range(hi - lo):
-                    column_max[k] = _larger_or_nan(column_max[k], other[k])
-            for c0 in range(i0, i1, group):
-                c1 = min(i1, c0 + group)
-                # columns x0 + c0 - 4 .. x0 + c1 + 3, as indices of column_max
-                start = x0 + c0 - reach - lo
-                value = column_max[start]
-                for k in range(start + 1, x0 + c1 + reach - lo):
-                    value = _larger_or_nan(value, column_max[k])
-                for i in range(c0, c1):
-                    largest[i] = value
-        for y in range(g0, g1):
-            row_inverse = inverse[y - b0]
-            row_margin = margins[y - b0]
-            energy_row = energy[y, x0:x1]
-            inner = y >= EDGE and y < height - EDGE
-            for i in range(tile):
-                row_inverse[i] = 1.0 / energy_row[i]
-                bound = largest[i] if inner else largest_square
-                row_margin[i] = FLOAT32_ERROR * (0.5 + 0.5 * bound * row_inverse[i]) + 1e-12
-
-
-@cached_njit(nogil=True)
-def _and(a, b):
-    if a == 0 or b == 0:
-        return 0
-    if a == 2 or b == 2:
-        return 2
-    return 1
-
-
-@cached_njit(nogil=True)
-def _or(a, b):
-    if a == 1 or b == 1:
-        return 1
-    if a == 2 or b == 2:
-        return 2
-    return 0
-
-
-@cached_njit(nogil=True)
-def _decide(lags, row, i, inverse, margin, along, alternation):
-    """``(decided, wall)``: the wall decision at a pixel from the float32 maps, if they settle it.
-
-    A wall: for a direction f with normal g, C(u_f) > along and
-    (C(u_g) < -alt and C(2 u_g) > alt, or C(2 u_g) < -alt and C(4 u_g) > alt).
-    Comparisons are made only as far as the decision needs them.
-    """
-    wall = 0
-    for direction in range(4):
-        m = 1 + 3 * direction
-        along_ = _compare(lags[m, row, i] * inverse, along, margin)
-        if along_ == 0:
-            continue
-        n = 1 + 3 * NORMAL_FAMILY[direction]
-        c1 = lags[n, row, i] * inverse
-        c2 = lags[n + 1, row, i] * inverse
-        first = _compare(c1, -alternation, margin)
-        if first != 0:
-            first = _and(first, _compare(c2, alternation, margin))
-        alternates = first
-        if alternates != 1:
-            second = _compare(c2, -alternation, margin)
-            if second != 0:
-                second = _and(second, _compare(lags[n + 2, row, i] * inverse, alternation, margin))
-            alternates = _or(alternates, second)
-        wall = _or(wall, _and(along_, alternates))
-        if wall == 1:
-            return True, True
-    if wall == 2:
-        return False, False
-    return True, False
-
-
-@cached_njit(nogil=True)
-def _product(fine, row, column, dy, dx):
-    """``0.5 * (h(p) h(p + d) + h(p - d) h(p))``, lags wrapping, as :func:`_source_row`."""
-    height, width = fine.shape
-    centre = fine[row, column]
-    return 0.5 * (
-        centre * fine[(row + dy) % height, (column + dx) % width]
-        + fine[(row - dy) % height, (column - dx) % width] * centre
-    )
-
-
-@cached_njit(nogil=True)
-def _exact_smoothed(fine, weights, y, x, dy, dx):
-    """The float64 Gaussian of the lag product at one pixel, as the block pipeline and
-    scipy compute it: the same operations in the same order (so the same float)."""
-    height, width = fine.shape
-    radius = weights.shape[0] - 1
-    vertical = np.empty(2 * radius + 1)
-    for k in range(-radius, radius + 1):
-        column = _reflect(x + k, width)
-        value = _product(fine, y, column, dy, dx) * weights[0]
-        for j in range(radius, 0, -1):
-            above = _product(fine, _reflect(y - j, height), column, dy, dx)
-            below = _product(fine, _reflect(y + j, height), column, dy, dx)
-            value += (above + below) * weights[j]
-        vertical[k + radius] = value
-    value = vertical[radius] * weights[0]
-    for j in range(radius, 0, -1):
-        value += (vertical[radius - j] + vertical[radius + j]) * weights[j]
-    return value
-
-
-@cached_njit(nogil=True)
-def _exact_wall(fine, weights, y, x, e, along_threshold, alternation_threshold):
-    """The wall decision at one pixel (energy ``e`` above the floor), all in float64."""
-    denominator = e if not e < 1e-12 else 1e-12
-    for direction in range(4):
-        ay, ax = LAG_DY[1 + 3 * direction], LAG_DX[1 + 3 * direction]
-        if not _exact_smoothed(fine, weights, y, x, ay, ax) / denominator > along_threshold:
-            continue
-        n = 1 + 3 * NORMAL_FAMILY[direction]
-        c1 = _exact_smoothed(fine, weights, y, x, LAG_DY[n], LAG_DX[n]) / denominator
-        c2 = _exact_smoothed(fine, weights, y, x, LAG_DY[n + 1], LAG_DX[n + 1]) / denominator
-        if c1 < -alternation_threshold and c2 > alternation_threshold:
-            return True
-        if c2 < -alternation_threshold:
-            c4 = _exact_smoothed(fine, weights, y, x, LAG_DY[n + 2], LAG_DX[n + 2]) / denominator
-            if c4 > alternation_threshold:
-                return True
-    return False
+                    if where[y, x0 + i]:
+                        centre = radius + i
+                        value = line[centre] * weights[0]
+                        for j in range(radius, 0, -1):
+                            value += (line[centre - j] + line[centre + j]) * weights[j]
+                        flags[y, x0 + i] = tones[x0 + i - s0] > value
 
 
 # --- structure tensor of the plane upsampled twice (float32) ---------------------------
@@ -974,134 +601,119 @@ TENSOR_RING_BYTES = 256 * 1024
 TENSOR_MIN_TILE = 512
 
 
-@cached_njit(nogil=True)
-def _doubled_row(plane, scale, i, origin, line, even, odd):
-    """Row ``i`` of ``zoom(plane, 2, order=1, grid_mode=True, mode="nearest")``, split by parity.
+#: Rows of the float32 scratch array of :func:`_doubled_products` (21 rows of n + 2): the
+#: doubled rows it keeps (slot r % 3, even then odd columns), the products ``d_r**2``,
+#: ``d_r d_c``, ``d_c**2`` at the even then the odd columns, its work rows, and the
+#: vertical interpolation of a doubled row.
+_ROWS_E = 0
+_ROWS_O = 3
+_PRODUCTS_E = 6
+_PRODUCTS_O = 9
+_WORK = 12
+_LINE = 20
+_SCRATCH_ROWS = 21
 
-    ``even[k]`` and ``odd[k]`` get the doubled columns 2 X and 2 X + 1 for
-    X = ``origin + k``; where X is outside the plane, the doubled row's
-    nearest column (the doubled plane extended by its edge values: the
-    structure tensor sees no edge at the frame). Doubled pixel 2 k samples
-    the plane at k - 1/4 and 2 k + 1 at k + 1/4: weights 1/4 and 3/4,
-    clamped at the edges. ``i`` is clamped to the doubled rows as well.
-    ``line`` is scratch space as long as ``even``. Values are multiplied by
-    ``scale`` (a power of two: exact) to keep float32 products in range.
+
+@_helper
+def _doubled_products(planes, scale, i, origin, scratch, tones, kept):
+    """The tensor products of doubled row ``i`` of the extended plane (any ``i``: a row
+    outside the plane reads its nearest rows) into the rows ``_PRODUCTS_E`` and
+    ``_PRODUCTS_O`` of ``scratch``.
+
+    The doubled rows i - 1, i, i + 1 are rows of ``zoom(plane, 2, order=1,
+    grid_mode=True, mode="nearest")`` times ``scale`` (a power of two:
+    exact, keeping float32 products in range), split by parity: even and
+    odd doubled columns 2 X and 2 X + 1 at local index k, X = ``origin +
+    k``; where X is outside the plane, the doubled row's nearest column (the
+    doubled plane extended by its edge values: the structure tensor sees no
+    edge at the frame). Doubled pixel 2 k samples the plane at k - 1/4 and
+    2 k + 1 at k + 1/4: weights 1/4 and 3/4, clamped at the edges (rows
+    too). Each is kept in slot ``r % 3`` (``kept[:3]`` says which doubled
+    rows the slots hold), the plane's rows it reads in ``tones`` (row r in
+    slot r % 4, ``kept[3:7]``). The products of the Sobel derivatives
+    ``d_r**2``, ``d_r d_c``, ``d_c**2`` go to doubled columns 2 X
+    (``_PRODUCTS_E``) and 2 X + 1 (``_PRODUCTS_O``) for k in [1, n - 1),
+    inside the plane and outside it (the Gaussian reads the extended
+    plane's products there).
     """
-    height, width = plane.shape
-    n = even.shape[0]
-    i = min(max(i, 0), 2 * height - 1)
-    k = i // 2
-    other = k - 1 if i % 2 == 0 else k + 1
-    other = min(max(other, 0), height - 1)
-    near = plane[k]
-    far = plane[other]
+    height, width = _plane_shape(planes)
+    n = scratch.shape[1] - 2
     # local index j holds phase column origin + j; the plane's columns are j in [j0, j1)
     j0 = min(max(0, -origin), n)
     j1 = max(min(n, width - origin), j0)
-    if j1 == j0:
-        even[:] = 0.0  # no column of the plane (never asked for)
-        odd[:] = 0.0
-        return
-    # line[j - j0 + 1] = vertical interpolation at column origin + j, for j in [j0 - 1, j1 + 1), clamped
     lo = origin + j0
     hi = origin + j1
-    for x in range(lo, hi):
-        line[x - lo + 1] = (0.75 * near[x] + 0.25 * far[x]) * scale
-    left = max(lo - 1, 0)
+    left = max(lo - 1, 0)  # the plane's columns read, clamped
     right = min(hi, width - 1)
-    line[0] = (0.75 * near[left] + 0.25 * far[left]) * scale
-    line[hi - lo + 1] = (0.75 * near[right] + 0.25 * far[right]) * scale
-    count = j1 - j0
     quarter = np.float32(0.25)
     three_quarters = np.float32(0.75)
-    _interpolate(line[:count], line[1 : count + 1], quarter, three_quarters, even[j0:j1])
-    _interpolate(line[1 : count + 1], line[2 : count + 2], three_quarters, quarter, odd[j0:j1])
-    # doubled columns before 0 take doubled column 0's value, after 2 W - 1 that one's
-    first = even[j0]
-    last = odd[j1 - 1]
-    for j in range(j0):
-        even[j] = first
-        odd[j] = first
-    for j in range(j1, n):
-        even[j] = last
-        odd[j] = last
-
-
-@cached_njit(nogil=True)
-def _interpolate(a, b, wa, wb, out):
-    for x in range(out.shape[0]):
-        out[x] = wa * a[x] + wb * b[x]
-
-
-@cached_njit(nogil=True)
-def _tensor_products(
-    up_e, up_o, mid_e, mid_o, down_e, down_o, work, products_e, products_o
-):
-    """Products of the Sobel derivatives of one doubled row of the extended plane.
-
-    ``up``/``mid``/``down`` are the doubled rows i - 1, i, i + 1 of the
-    doubled plane extended by its edge values (:func:`_doubled_row`), split
-    by column parity, index k holding phase column ``origin + k``.
-    ``products_*[c, k]`` get ``d_r**2``, ``d_r d_c``, ``d_c**2`` at doubled
-    columns 2 X (``_e``) and 2 X + 1 (``_o``), X = ``origin + k``, for k in
-    [1, n - 1), inside the plane and outside it (the Gaussian reads the
-    extended plane's products there). ``work`` is scratch space of shape
-    (8, n).
-    """
-    n = up_e.shape[0]
-    dv_e, dv_o, sv_e, sv_o = work[0], work[1], work[2], work[3]
-    two = np.float32(2.0)
-    dr_e, dr_o, dc_e, dc_o = work[4], work[5], work[6], work[7]
+    line = scratch[_LINE]
+    for q in range(3):
+        r = min(max(i - 1 + q, 0), 2 * height - 1)
+        kept[7 + q] = r % 3  # the slot of doubled row i - 1 + q
+        if kept[r % 3] == r:
+            continue
+        kept[r % 3] = r
+        even = scratch[_ROWS_E + r % 3, :n]
+        odd = scratch[_ROWS_O + r % 3, :n]
+        if j1 == j0:
+            for j in range(n):  # no column of the plane (never asked for)
+                even[j] = 0.0
+                odd[j] = 0.0
+            continue
+        k = r // 2
+        other = min(max(k - 1 if r % 2 == 0 else k + 1, 0), height - 1)
+        for row in (k, other):
+            if kept[3 + row % 4] != row:
+                _load_row(planes, row, left, right + 1, tones[row % 4])
+                kept[3 + row % 4] = row
+        near = tones[k % 4]
+        far = tones[other % 4]
+        # line[j - j0 + 1] = vertical interpolation at column origin + j, for j in
+        # [j0 - 1, j1 + 1), clamped
+        for x in range(lo, hi):
+            line[x - lo + 1] = (0.75 * near[x - left] + 0.25 * far[x - left]) * scale
+        line[0] = (0.75 * near[0] + 0.25 * far[0]) * scale
+        line[hi - lo + 1] = (0.75 * near[right - left] + 0.25 * far[right - left]) * scale
+        for x in range(j1 - j0):
+            even[j0 + x] = quarter * line[x] + three_quarters * line[x + 1]
+            odd[j0 + x] = three_quarters * line[x + 1] + quarter * line[x + 2]
+        # doubled columns before 0 take doubled column 0's value, after 2 W - 1 that one's
+        first = even[j0]
+        last = odd[j1 - 1]
+        for j in range(j0):
+            even[j] = first
+            odd[j] = first
+        for j in range(j1, n):
+            even[j] = last
+            odd[j] = last
+    up_e, up_o = scratch[_ROWS_E + kept[7], :n], scratch[_ROWS_O + kept[7], :n]
+    mid_e, mid_o = scratch[_ROWS_E + kept[8], :n], scratch[_ROWS_O + kept[8], :n]
+    down_e, down_o = scratch[_ROWS_E + kept[9], :n], scratch[_ROWS_O + kept[9], :n]
+    dv_e, dv_o = scratch[_WORK, :n], scratch[_WORK + 1, :n]  # down - up
+    sv_e, sv_o = scratch[_WORK + 2, :n], scratch[_WORK + 3, :n]  # up + 2 mid + down
+    two = np.float32(2.0)  # float32 arithmetic: a float64 constant would widen the loop
     for k in range(n):
         dv_e[k] = down_e[k] - up_e[k]
         dv_o[k] = down_o[k] - up_o[k]
-    for k in range(n):
         sv_e[k] = up_e[k] + two * mid_e[k] + down_e[k]
         sv_o[k] = up_o[k] + two * mid_o[k] + down_o[k]
-    m = n - 2
-    _sobel_phase(dv_o[: n - 2], dv_e[1 : n - 1], dv_o[1 : n - 1], dr_e[1 : n - 1])
-    _sobel_phase(dv_e[1 : n - 1], dv_o[1 : n - 1], dv_e[2:n], dr_o[1 : n - 1])
-    _difference(sv_o[1 : n - 1], sv_o[: n - 2], dc_e[1 : n - 1])
-    _difference(sv_e[2:n], sv_e[1 : n - 1], dc_o[1 : n - 1])
-    _products(
-        dr_e[1 : n - 1],
-        dc_e[1 : n - 1],
-        products_e[0, 1 : n - 1],
-        products_e[1, 1 : n - 1],
-        products_e[2, 1 : n - 1],
-    )
-    _products(
-        dr_o[1 : n - 1],
-        dc_o[1 : n - 1],
-        products_o[0, 1 : n - 1],
-        products_o[1, 1 : n - 1],
-        products_o[2, 1 : n - 1],
-    )
-    return m
+    rr_e, rc_e, cc_e = scratch[_PRODUCTS_E], scratch[_PRODUCTS_E + 1], scratch[_PRODUCTS_E + 2]
+    rr_o, rc_o, cc_o = scratch[_PRODUCTS_O], scratch[_PRODUCTS_O + 1], scratch[_PRODUCTS_O + 2]
+    for k in range(1, n - 1):
+        dr_e = dv_o[k - 1] + two * dv_e[k] + dv_o[k]
+        dr_o = dv_e[k] + two * dv_o[k] + dv_e[k + 1]
+        dc_e = sv_o[k] - sv_o[k - 1]
+        dc_o = sv_e[k + 1] - sv_e[k]
+        rr_e[k] = dr_e * dr_e
+        rc_e[k] = dr_e * dc_e
+        cc_e[k] = dc_e * dc_e
+        rr_o[k] = dr_o * dr_o
+        rc_o[k] = dr_o * dc_o
+        cc_o[k] = dc_o * dc_o
 
 
-@cached_njit(nogil=True)
-def _sobel_phase(left, centre, right, out):
-    two = np.float32(2.0)  # float32 arithmetic: a float64 constant would widen the loop
-    for x in range(centre.shape[0]):
-        out[x] = left[x] + two * centre[x] + right[x]
-
-
-@cached_njit(nogil=True)
-def _difference(a, b, out):
-    for x in range(a.shape[0]):
-        out[x] = a[x] - b[x]
-
-
-@cached_njit(nogil=True)
-def _products(dr, dc, rr, rc, cc):
-    for x in range(dr.shape[0]):
-        rr[x] = dr[x] * dr[x]
-        rc[x] = dr[x] * dc[x]
-        cc[x] = dc[x] * dc[x]
-
-
-@cached_njit(nogil=True)
+@_helper
 def _gauss_even(line_e, line_o, pad, weights, out):
     """Gaussian of a doubled line at its even columns, from its two phases.
 
@@ -1110,132 +722,23 @@ def _gauss_even(line_e, line_o, pad, weights, out):
     """
     n = out.shape[0]
     radius = weights.shape[0] - 1
-    _scale(out, line_e[pad : pad + n], weights[0])
-    t = radius
-    while t >= 1:
-        if t >= 4:
-            a1, b1 = _phase_pair(line_e, line_o, pad, n, t)
-            a2, b2 = _phase_pair(line_e, line_o, pad, n, t - 1)
-            a3, b3 = _phase_pair(line_e, line_o, pad, n, t - 2)
-            a4, b4 = _phase_pair(line_e, line_o, pad, n, t - 3)
-            _add_taps4(
-                out,
-                a1,
-                b1,
-                weights[t],
-                a2,
-                b2,
-                weights[t - 1],
-                a3,
-                b3,
-                weights[t - 2],
-                a4,
-                b4,
-                weights[t - 3],
-            )
-            t -= 4
+    middle = line_e[pad:]
+    w0 = weights[0]
+    for i in range(n):
+        out[i] = middle[i] * w0
+    for t in range(radius, 0, -1):
+        if t % 2 == 0:
+            a = line_e[pad - t // 2 :]
+            b = line_e[pad + t // 2 :]
         else:
-            a, b = _phase_pair(line_e, line_o, pad, n, t)
-            _add_tap(out, a, b, weights[t])
-            t -= 1
+            a = line_o[pad - (t - 1) // 2 - 1 :]
+            b = line_o[pad + (t - 1) // 2 :]
+        w = weights[t]
+        for i in range(n):
+            out[i] += (a[i] + b[i]) * w
 
 
-@cached_njit(nogil=True)
-def _phase_pair(line_e, line_o, pad, n, t):
-    """The two lines of doubled offsets -t and +t for the even outputs 0 .. n - 1."""
-    if t % 2 == 0:
-        m = t // 2
-        return line_e[pad - m : pad - m + n], line_e[pad + m : pad + m + n]
-    m = (t - 1) // 2
-    return line_o[pad - m - 1 : pad - m - 1 + n], line_o[pad + m : pad + m + n]
-
-
-@cached_njit(nogil=True)
-def _tensor_tile(
-    plane, scale, weights, mode, needed, tile_index, x0, x1, y0, y1, out0, out1, out2, out3
-):
-    """:func:`orientation_band` on the output columns ``[x0, x1)`` (column tile ``tile_index``)."""
-    height = plane.shape[0]
-    doubled_height = 2 * height
-    radius = weights.shape[0] - 1
-    ring_rows = 2 * radius + 1
-    # every doubled row above the plane has the products of the one just above it, and
-    # every row below that of the one just below: one slot each
-    top_slot = ring_rows
-    bottom_slot = ring_rows + 1
-    pad = radius // 2 + 2  # the Gaussian's reach on both phases, and the Sobel's column
-    tile = x1 - x0
-    origin = x0 - pad  # phase column of local index 0
-    n = tile + 2 * pad
-    rows_e = np.zeros((3, n), dtype=np.float32)  # doubled rows, in slots row % 3
-    rows_o = np.zeros((3, n), dtype=np.float32)
-    row_of_slot = np.full(3, -1, dtype=np.int64)
-    line = np.empty(n + 2, dtype=np.float32)
-    slots = np.empty(3, dtype=np.int64)
-    work = np.zeros((8, n), dtype=np.float32)
-    products_e = np.zeros((3, n), dtype=np.float32)
-    products_o = np.zeros((3, n), dtype=np.float32)
-    ring = np.zeros((3, ring_rows + 2, tile), dtype=np.float32)
-    tensor = np.empty((3, tile), dtype=np.float32)
-    lower = np.empty(radius + 1, dtype=np.int64)
-    upper = np.empty(radius + 1, dtype=np.int64)
-    for outside, slot in ((-1, top_slot), (doubled_height, bottom_slot)):
-        if (outside < 0 and 2 * y0 - radius >= 0) or (
-            outside >= 0 and 2 * (y1 - 1) + radius < doubled_height
-        ):
-            continue  # no row of this band reads it
-        _doubled_products(
-            plane, scale, outside, origin, rows_e, rows_o, row_of_slot, line, slots, work,
-            products_e, products_o,
-        )  # fmt: skip
-        for c in range(3):
-            _gauss_even(products_e[c], products_o[c], pad, weights, ring[c, slot])
-    next_row = max(0, 2 * y0 - radius)
-    for y in range(y0, y1):
-        if not needed[y, tile_index]:
-            continue  # nothing asked for in this row of the tile
-        centre = 2 * y
-        next_row = max(next_row, centre - radius)
-        last_row = min(centre + radius, doubled_height - 1)
-        while next_row <= last_row:
-            i = next_row
-            _doubled_products(
-                plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work,
-                products_e, products_o,
-            )  # fmt: skip
-            for c in range(3):
-                _gauss_even(products_e[c], products_o[c], pad, weights, ring[c, i % ring_rows])
-            next_row += 1
-        for j in range(radius + 1):
-            r = centre - j
-            lower[j] = r % ring_rows if r >= 0 else top_slot
-            r = centre + j
-            upper[j] = r % ring_rows if r < doubled_height else bottom_slot
-        for c in range(3):
-            _gauss_rows(ring[c], lower, upper, centre % ring_rows, weights, tensor[c])
-        if mode == TENSOR_COMPONENTS:
-            _copy(tensor[0], out0[y, x0:x1])
-            _copy(tensor[1], out1[y, x0:x1])
-            _copy(tensor[2], out2[y, x0:x1])
-        else:
-            _derive(
-                tensor[0],
-                tensor[1],
-                tensor[2],
-                out0[y, x0:x1],
-                out1[y, x0:x1],
-                out2[y, x0:x1],
-                out3[y, x0:x1],
-            )
-
-
-@cached_njit(nogil=True)
-def _copy(source, target):
-    for x in range(target.shape[0]):
-        target[x] = source[x]
-
-
-@cached_njit(nogil=True)
+@_helper
 def _derive(rr, rc, cc, strength, coherent, cosine, sine):
     """Strength ``l1 + l2``, coherence times strength, cos and sin of twice the angle."""
     for x in range(strength.shape[0]):
@@ -1246,7 +749,7 @@ def _derive(rr, rc, cc, strength, coherent, cosine, sine):
         sine[x] = s
 
 
-@cached_njit(nogil=True, inline="always")
+@_helper
 def _derived(rr, rc, cc):
     """:func:`_derive` at one pixel, in float64 (stored in float32 by the callers)."""
     jrr = np.float64(rr)
@@ -1267,32 +770,8 @@ def _derived(rr, rc, cc):
     return trace, coherence * trace, c, s
 
 
-@cached_njit(nogil=True)
-def _derive_where(rr, rc, cc, mask, start, strength, coherent, cosine, sine):
-    """:func:`_derive` at the True pixels of ``mask`` only, written one after the other
-    from index ``start`` of the outputs (the components gathered first, then derived in
-    one loop)."""
-    count = 0
-    for x in range(mask.shape[0]):
-        if mask[x]:
-            rr[count] = rr[x]  # count <= x: a component is read before it is overwritten
-            rc[count] = rc[x]
-            cc[count] = cc[x]
-            count += 1
-    end = start + count
-    _derive(
-        rr[:count],
-        rc[:count],
-        cc[:count],
-        strength[start:end],
-        coherent[start:end],
-        cosine[start:end],
-        sine[start:end],
-    )
-
-
-@cached_njit(nogil=True)
-def orientation_band(plane, scale, weights, mode, needed, out0, out1, out2, out3, y0, y1):
+@cached_njit(nogil=True, error_model="numpy", no_cfunc_wrapper=True)
+def orientation_band(planes, scale, weights, mode, needed, out0, out1, out2, out3, y0, y1):
     """Structure tensor of ``zoom(plane, 2)`` at the even doubled pixels of rows ``[y0, y1)``.
 
     ``skimage.feature.structure_tensor(doubled, sigma, order="rc")[::2, ::2]``
@@ -1310,16 +789,85 @@ def orientation_band(plane, scale, weights, mode, needed, out0, out1, out2, out3
     The columns are cut into ``n = needed.shape[1]`` tiles (tile k: columns
     ``[k W // n, (k + 1) W // n)``); row y of tile k is computed where
     ``needed[y, k]``, the other pixels of the outputs are left as they were
-    (see :func:`tensor_tiles` and :func:`tiles_with`).
+    (see :func:`tensor_tiles` and :func:`mask_counts`).
     """
-    width = plane.shape[1]
+    height, width = _plane_shape(planes)
+    doubled_height = 2 * height
+    radius = weights.shape[0] - 1
+    ring_rows = 2 * radius + 1
+    # every doubled row above the plane has the products of the one just above it, and
+    # every row below that of the one just below: one slot each
+    top_slot = ring_rows
+    bottom_slot = ring_rows + 1
+    pad = radius // 2 + 2  # the Gaussian's reach on both phases, and the Sobel's column
     count = needed.shape[1]
-    for k in range(count):
-        x0 = (k * width) // count
-        x1 = ((k + 1) * width) // count
-        _tensor_tile(
-            plane, scale, weights, mode, needed, k, x0, x1, y0, y1, out0, out1, out2, out3
-        )
+    for tile_index in range(count):
+        x0 = (tile_index * width) // count
+        x1 = ((tile_index + 1) * width) // count
+        tile = x1 - x0
+        origin = x0 - pad  # phase column of local index 0
+        n = tile + 2 * pad
+        scratch = np.zeros((_SCRATCH_ROWS, n + 2), dtype=np.float32)
+        tones = np.empty((4, n + 2))
+        kept = np.empty(10, dtype=np.int64)
+        for slot in range(10):
+            kept[slot] = -1
+        ring = np.zeros((3, ring_rows + 2, tile), dtype=np.float32)
+        tensor = np.empty((3, tile), dtype=np.float32)
+        taps = np.empty((1, 4, radius + 1), dtype=np.int64)  # :func:`_gauss`'s, down the ring
+        for j in range(radius + 1):
+            for k in range(4):
+                taps[0, k, j] = 0
+        next_row = max(0, 2 * y0 - radius)
+        # y0 - 2 and y0 - 1 stand for the doubled rows above and below the plane (one row
+        # each, made first where this band reads them), then the rows of the band
+        for y in range(y0 - 2, y1):
+            if y >= y0 and not needed[y, tile_index]:
+                continue  # nothing asked for in this row of the tile
+            if y == y0 - 2:
+                first = -1
+                last = -1 if 2 * y0 - radius < 0 else -2
+            elif y == y0 - 1:
+                first = doubled_height
+                last = doubled_height if 2 * (y1 - 1) + radius >= doubled_height else first - 1
+            else:
+                first = max(next_row, 2 * y - radius)
+                last = min(2 * y + radius, doubled_height - 1)
+            for i in range(first, last + 1):
+                _doubled_products(planes, scale, i, origin, scratch, tones, kept)
+                slot = i % ring_rows
+                if i < 0 or i >= doubled_height:
+                    slot = top_slot if i < 0 else bottom_slot
+                else:
+                    next_row = i + 1
+                for c in range(3):
+                    _gauss_even(scratch[_PRODUCTS_E + c], scratch[_PRODUCTS_O + c], pad, weights,
+                                ring[c, slot])  # fmt: skip
+            if y < y0:
+                continue
+            centre = 2 * y
+            for j in range(radius + 1):
+                r = centre - j
+                taps[0, 0, j] = r % ring_rows if r >= 0 else top_slot
+                r = centre + j
+                taps[0, 1, j] = r % ring_rows if r < doubled_height else bottom_slot
+            for c in range(3):
+                _gauss(ring[c], taps[0], weights, tensor[c])
+            if mode == TENSOR_COMPONENTS:
+                for x in range(tile):
+                    out0[y, x0 + x] = tensor[0, x]
+                    out1[y, x0 + x] = tensor[1, x]
+                    out2[y, x0 + x] = tensor[2, x]
+            else:
+                _derive(
+                    tensor[0],
+                    tensor[1],
+                    tensor[2],
+                    out0[y, x0:x1],
+                    out1[y, x0:x1],
+                    out2[y, x0:x1],
+                    out3[y, x0:x1],
+                )
 
 
 #: Variance (original pixels squared) of the 1-2-1 filter on the doubled grid that
@@ -1333,252 +881,9 @@ def decimated_sigma(sigma: float) -> float:
     return float(np.sqrt(sigma * sigma - PREFILTER_VARIANCE))
 
 
-@cached_njit(nogil=True)
-def _doubled_products(
-    plane, scale, i, origin, rows_e, rows_o, row_of_slot, line, slots, work, products_e, products_o
-):
-    """The tensor products of doubled row ``i`` of the extended plane (see
-    :func:`_tensor_products`; any ``i``: a row outside the plane reads its nearest rows);
-    the doubled rows it reads are kept in slots ``r % 3`` of ``rows_e``/``rows_o``."""
-    doubled_height = 2 * plane.shape[0]
-    for k in range(3):
-        r = min(max(i - 1 + k, 0), doubled_height - 1)
-        slot = r % 3
-        if row_of_slot[slot] != r:
-            _doubled_row(plane, scale, r, origin, line, rows_e[slot], rows_o[slot])
-            row_of_slot[slot] = r
-        slots[k] = slot
-    _tensor_products(
-        rows_e[slots[0]],
-        rows_o[slots[0]],
-        rows_e[slots[1]],
-        rows_o[slots[1]],
-        rows_e[slots[2]],
-        rows_o[slots[2]],
-        work,
-        products_e,
-        products_o,
-    )
-
-
-@cached_njit(nogil=True)
-def _prefilter_columns(products_e, products_o, weight, out):
-    """``out[c, k] += weight * (P_o[k - 1] + 2 P_e[k] + P_o[k])`` for k in [1, n): the
-    doubled row's 1-2-1 filter across columns, sampled at the even (original) columns."""
-    n = out.shape[1]
-    two = np.float32(2.0)
-    for c in range(3):
-        even = products_e[c]
-        odd = products_o[c]
-        target = out[c]
-        for k in range(1, n):
-            target[k] += weight * ((odd[k - 1] + odd[k]) + two * even[k])
-
-
-@cached_njit(nogil=True)
-def _add_doubled(
-    plane,
-    scale,
-    i,
-    origin,
-    rows_e,
-    rows_o,
-    row_of_slot,
-    line,
-    slots,
-    work,
-    products_e,
-    products_o,
-    weight,
-    out,
-):
-    """``out += weight *`` doubled row ``i``'s products (of the extended plane: any ``i``)
-    filtered 1-2-1 across columns."""
-    _doubled_products(
-        plane,
-        scale,
-        i,
-        origin,
-        rows_e,
-        rows_o,
-        row_of_slot,
-        line,
-        slots,
-        work,
-        products_e,
-        products_o,
-    )
-    _prefilter_columns(products_e, products_o, weight, out)
-
-
-@cached_njit(nogil=True)
-def _decimated_tile(
-    plane,
-    scale,
-    weights,
-    mode,
-    needed,
-    starts,
-    mask,
-    tile_index,
-    x0,
-    x1,
-    y0,
-    y1,
-    out0,
-    out1,
-    out2,
-    out3,
-):
-    """:func:`decimated_tensor_band` on the output columns ``[x0, x1)`` (tile ``tile_index``)."""
-    height = plane.shape[0]
-    radius = weights.shape[0] - 1
-    ring_rows = 2 * radius + 1
-    # rows before 0 (doubled rows before 0 only) are all alike, as rows after ``height``
-    top_slot = ring_rows
-    bottom_slot = ring_rows + 1
-    pad = radius + 2
-    tile = x1 - x0
-    origin = x0 - pad  # phase column of local index 0
-    n = tile + 2 * pad
-    rows_e = np.zeros((3, n), dtype=np.float32)
-    rows_o = np.zeros((3, n), dtype=np.float32)
-    row_of_slot = np.full(3, -1, dtype=np.int64)
-    line = np.empty(n + 2, dtype=np.float32)
-    slots = np.empty(3, dtype=np.int64)
-    work = np.zeros((8, n), dtype=np.float32)
-    products_e = np.zeros((3, n), dtype=np.float32)
-    products_o = np.zeros((3, n), dtype=np.float32)
-    sampled = np.zeros((3, n), dtype=np.float32)  # the products filtered 1-2-1 both ways
-    ring = np.zeros((3, ring_rows + 2, tile), dtype=np.float32)
-    tensor = np.empty((3, tile), dtype=np.float32)
-    lower = np.empty(radius + 1, dtype=np.int64)
-    upper = np.empty(radius + 1, dtype=np.int64)
-    quarter = np.float32(0.0625)  # (1/4) * (1/4): the two 1-2-1 filters' norms
-    below = np.zeros((3, n), dtype=np.float32)
-    # the rows outside the plane's: those before 0 read doubled rows before 0 only, whose
-    # products are alike, as those after ``height`` (the 1-2-1 weights' sum: 4 quarters)
-    for doubled, slot in ((-1, top_slot), (2 * height, bottom_slot)):
-        if (doubled < 0 and y0 - radius >= 0) or (doubled >= 0 and y1 - 1 + radius <= height):
-            continue  # no row of this band reads it
-        sampled[:] = 0.0
-        _add_doubled(
-            plane, scale, doubled, origin, rows_e, rows_o, row_of_slot, line, slots, work,
-            products_e, products_o, np.float32(4.0) * quarter, sampled,
-        )  # fmt: skip
-        for c in range(3):
-            _gauss_line(sampled[c, pad - radius :], radius, weights, ring[c, slot])
-    below_row = -3
-    next_row = max(0, y0 - radius)
-    for y in range(y0, y1):
-        if not needed[y, tile_index]:
-            continue
-        next_row = max(next_row, y - radius)
-        # row ``height`` reads doubled row 2 height - 1 of the plane, and two after it
-        last_row = min(y + radius, height)
-        while next_row <= last_row:
-            row = next_row
-            # doubled rows 2 row - 1, 2 row, 2 row + 1 with weights 1, 2, 1; the first is
-            # the last of the row before, kept in ``below`` when that row was just computed
-            if below_row == 2 * row - 1:
-                sampled[:] = below
-            else:
-                sampled[:] = 0.0
-                _add_doubled(
-                    plane,
-                    scale,
-                    2 * row - 1,
-                    origin,
-                    rows_e,
-                    rows_o,
-                    row_of_slot,
-                    line,
-                    slots,
-                    work,
-                    products_e,
-                    products_o,
-                    quarter,
-                    sampled,
-                )
-            _add_doubled(
-                plane,
-                scale,
-                2 * row,
-                origin,
-                rows_e,
-                rows_o,
-                row_of_slot,
-                line,
-                slots,
-                work,
-                products_e,
-                products_o,
-                quarter + quarter,
-                sampled,
-            )
-            below[:] = 0.0
-            _add_doubled(
-                plane,
-                scale,
-                2 * row + 1,
-                origin,
-                rows_e,
-                rows_o,
-                row_of_slot,
-                line,
-                slots,
-                work,
-                products_e,
-                products_o,
-                quarter,
-                below,
-            )
-            below_row = 2 * row + 1
-            for c in range(3):
-                for k in range(n):
-                    sampled[c, k] += below[c, k]
-            for c in range(3):
-                # output column x0 + i is local index pad + i: the line starts ``radius`` before
-                _gauss_line(sampled[c, pad - radius :], radius, weights, ring[c, row % ring_rows])
-            next_row += 1
-        for j in range(radius + 1):
-            r = y - j
-            lower[j] = r % ring_rows if r >= 0 else top_slot
-            r = y + j
-            upper[j] = r % ring_rows if r <= height else bottom_slot
-        for c in range(3):
-            _gauss_rows(ring[c], lower, upper, y % ring_rows, weights, tensor[c])
-        if mode == TENSOR_COMPONENTS:
-            _copy(tensor[0], out0[y, x0:x1])
-            _copy(tensor[1], out1[y, x0:x1])
-            _copy(tensor[2], out2[y, x0:x1])
-        elif starts.shape[0] == 0:
-            _derive(
-                tensor[0],
-                tensor[1],
-                tensor[2],
-                out0[y, x0:x1],
-                out1[y, x0:x1],
-                out2[y, x0:x1],
-                out3[y, x0:x1],
-            )
-        else:
-            _derive_where(
-                tensor[0],
-                tensor[1],
-                tensor[2],
-                mask[y, x0:x1],
-                starts[y, tile_index],
-                out0[0],
-                out1[0],
-                out2[0],
-                out3[0],
-            )
-
-
-@cached_njit(nogil=True)
+@cached_njit(nogil=True, error_model="numpy", no_cfunc_wrapper=True)
 def decimated_tensor_band(
-    plane, scale, weights, mode, needed, starts, mask, out0, out1, out2, out3, y0, y1
+    planes, scale, weights, mode, needed, starts, mask, out0, out1, out2, out3, y0, y1
 ):
     """The contours' structure tensor on rows ``[y0, y1)``, decimated.
 
@@ -1600,15 +905,139 @@ def decimated_tensor_band(
     row-major order: the outputs are single rows, and the pixels of row y
     in tile k begin at index ``starts[y, k]`` (see :func:`mask_starts`).
     """
-    width = plane.shape[1]
+    height, width = _plane_shape(planes)
+    radius = weights.shape[0] - 1
+    ring_rows = 2 * radius + 1
+    # rows before 0 read doubled rows before 0 only, whose products are alike, as rows after
+    # ``height``: one slot each
+    top_slot = ring_rows
+    bottom_slot = ring_rows + 1
+    pad = radius + 2
+    quarter = np.float32(0.0625)  # (1/4) * (1/4): the two 1-2-1 filters' norms
+    two = np.float32(2.0)
     count = needed.shape[1]
-    for k in range(count):
-        x0 = (k * width) // count
-        x1 = ((k + 1) * width) // count
-        _decimated_tile(
-            plane, scale, weights, mode, needed, starts, mask, k, x0, x1, y0, y1,
-            out0, out1, out2, out3,
-        )  # fmt: skip
+    for tile_index in range(count):
+        x0 = (tile_index * width) // count
+        x1 = ((tile_index + 1) * width) // count
+        tile = x1 - x0
+        origin = x0 - pad  # phase column of local index 0
+        n = tile + 2 * pad
+        scratch = np.zeros((_SCRATCH_ROWS, n + 2), dtype=np.float32)
+        tones = np.empty((4, n + 2))
+        kept = np.empty(10, dtype=np.int64)
+        for slot in range(10):
+            kept[slot] = -1
+        # a row of the products filtered 1-2-1 along both axes, and its last doubled row's part
+        filtered = np.zeros((2, 3, n), dtype=np.float32)
+        sampled = filtered[0]
+        below = filtered[1]
+        below_row = np.int64(-3)  # the doubled row whose part ``below`` holds
+        ring = np.zeros((3, ring_rows + 2, tile), dtype=np.float32)
+        tensor = np.empty((3, tile), dtype=np.float32)
+        # :func:`_gauss`'s taps: down the ring, along a filtered row (output column x0 + i is
+        # local index pad + i)
+        taps = np.empty((2, 4, radius + 1), dtype=np.int64)
+        for j in range(radius + 1):
+            taps[0, 2, j] = 0
+            taps[0, 3, j] = 0
+            taps[1, 0, j] = 0
+            taps[1, 1, j] = 0
+            taps[1, 2, j] = pad - j
+            taps[1, 3, j] = pad + j
+        next_row = max(0, y0 - radius)
+        # y0 - 2 and y0 - 1 stand for the rows before 0 and after ``height`` (made first where
+        # this band reads them), then the rows of the band
+        for y in range(y0 - 2, y1):
+            if y >= y0 and not needed[y, tile_index]:
+                continue
+            if y == y0 - 2:
+                first = -1
+                last = -1 if y0 - radius < 0 else -2
+            elif y == y0 - 1:
+                first = height + 1
+                last = height + 1 if y1 - 1 + radius > height else height
+            else:
+                first = max(next_row, y - radius)
+                # row ``height`` reads doubled row 2 height - 1 of the plane, and two after it
+                last = min(y + radius, height)
+            for row in range(first, last + 1):
+                # a row of the plane sums its doubled rows 2 row - 1, 2 row, 2 row + 1 with
+                # weights 1, 2, 1, the first kept in ``below`` when it was the last row's
+                # last; a row outside it one doubled row with the weights' sum
+                inside = row >= 0 and row <= height
+                for t in range(3 if inside else 1):
+                    doubled = 2 * row - 1 + t
+                    weight = quarter + quarter if t == 1 else quarter
+                    if not inside:
+                        doubled = -1 if row < 0 else 2 * height
+                        weight = np.float32(4.0) * quarter
+                    target = below if t == 2 else sampled
+                    if t == 0 and inside and below_row == doubled:
+                        for c in range(3):
+                            for k in range(n):
+                                sampled[c, k] = below[c, k]
+                        continue
+                    if t != 1:
+                        for c in range(3):
+                            for k in range(n):
+                                target[c, k] = 0.0
+                    _doubled_products(planes, scale, doubled, origin, scratch, tones, kept)
+                    for c in range(3):  # the 1-2-1 filter across columns, at the even ones
+                        even = scratch[_PRODUCTS_E + c]
+                        odd = scratch[_PRODUCTS_O + c]
+                        part = target[c]
+                        for k in range(1, n):
+                            part[k] += weight * ((odd[k - 1] + odd[k]) + two * even[k])
+                slot = top_slot if row < 0 else bottom_slot
+                if inside:
+                    for c in range(3):
+                        for k in range(n):
+                            sampled[c, k] += below[c, k]
+                    below_row = 2 * row + 1
+                    slot = row % ring_rows
+                    next_row = row + 1
+                for c in range(3):
+                    _gauss(sampled[c : c + 1], taps[1], weights, ring[c, slot])
+            if y < y0:
+                continue
+            for j in range(radius + 1):
+                r = y - j
+                taps[0, 0, j] = r % ring_rows if r >= 0 else top_slot
+                r = y + j
+                taps[0, 1, j] = r % ring_rows if r <= height else bottom_slot
+            for c in range(3):
+                _gauss(ring[c], taps[0], weights, tensor[c])
+            if mode == TENSOR_COMPONENTS:
+                for x in range(tile):
+                    out0[y, x0 + x] = tensor[0, x]
+                    out1[y, x0 + x] = tensor[1, x]
+                    out2[y, x0 + x] = tensor[2, x]
+                continue
+            # the derived maps, of the whole row or (``starts``) of the mask's pixels only,
+            # their components gathered first (one after the other; count <= x: a component
+            # is read before it is overwritten)
+            start = 0
+            end = tile
+            if starts.shape[0] > 0:
+                end = 0
+                for x in range(tile):
+                    if mask[y, x0 + x]:
+                        for c in range(3):
+                            tensor[c, end] = tensor[c, x]
+                        end += 1
+                start = starts[y, tile_index]
+                end += start
+            rows = y if starts.shape[0] == 0 else 0
+            columns = x0 if starts.shape[0] == 0 else start
+            _derive(
+                tensor[0, : end - start],
+                tensor[1, : end - start],
+                tensor[2, : end - start],
+                out0[rows, columns : columns + end - start],
+                out1[rows, columns : columns + end - start],
+                out2[rows, columns : columns + end - start],
+                out3[rows, columns : columns + end - start],
+            )
 
 
 def tensor_tiles(width: int, radius: int) -> int:
@@ -1622,24 +1051,7 @@ def tensor_tiles(width: int, radius: int) -> int:
     return max(1, (width + tile - 1) // tile)
 
 
-@cached_njit(nogil=True)
-def tiles_with(mask, needed, y0, y1):
-    """``needed[y, k]`` = whether row y of column tile k (see :func:`orientation_band`)
-    holds a True pixel of ``mask``, for rows ``[y0, y1)``."""
-    width = mask.shape[1]
-    count = needed.shape[1]
-    for y in range(y0, y1):
-        row = mask[y]
-        for k in range(count):
-            found = False
-            for x in range((k * width) // count, ((k + 1) * width) // count):
-                if row[x]:
-                    found = True
-                    break
-            needed[y, k] = found
-
-
-@cached_njit(nogil=True)
+@cached_njit(nogil=True, error_model="numpy", no_cfunc_wrapper=True)
 def mask_counts(mask, counts, y0, y1):
     """``counts[y, k]`` = the True pixels of ``mask`` in row y of column tile k (see
     :func:`orientation_band`), for rows ``[y0, y1)``."""
@@ -1664,72 +1076,13 @@ def mask_starts(counts: np.ndarray) -> np.ndarray:
 # --- reductions --------------------------------------------------------------------------
 
 
-@cached_njit(nogil=True)
-def sobel_band(plane, out, sums, y0, y1):
-    """``skimage.filters.sobel`` (``reflect``) on rows ``[y0, y1)``; ``sums[y]``: min, max, sum."""
-    width = plane.shape[1]
-    padded = np.empty((3, width + 2))  # rows y - 1, y, y + 1 with one reflected column a side
-    rows = np.empty(width)
-    columns = np.empty(width)
-    for y in range(y0, y1):
-        _sobel_row(plane, y, padded, rows, columns, out[y], sums[y])
-
-
-@cached_njit(nogil=True)
-def _sobel_row(plane, y, padded, rows, columns, row, sums):
-    """Row y of :func:`sobel_band` into ``row``; ``sums[0:3]``: its min, max and sum."""
-    height, width = plane.shape
-    root2 = np.sqrt(2.0)
-    for k in range(3):
-        source = plane[_reflect(y - 1 + k, height)]
-        line = padded[k]
-        for x in range(width):
-            line[x + 1] = source[x]
-        line[0] = source[_reflect(-1, width)]
-        line[width + 1] = source[_reflect(width, width)]
-    _sobel_rows(padded[0], padded[1], padded[2], rows, columns)
-    for x in range(width):
-        row[x] = np.sqrt(rows[x] * rows[x] + columns[x] * columns[x]) / root2
-    low, high, _ = _finite_range(row)
-    sums[0] = low
-    sums[1] = high
-    sums[2] = _sum(row)
-
-
-@cached_njit(nogil=True)
-def _sobel_rows(up, mid, down, rows, columns):
-    """The two Sobel derivatives (skimage's weights 1 2 1 / 4) of a row, from padded rows."""
-    for x in range(rows.shape[0]):
-        rows[x] = 0.25 * (
-            (down[x] + 2.0 * down[x + 1] + down[x + 2]) - (up[x] + 2.0 * up[x + 1] + up[x + 2])
-        )
-    for x in range(rows.shape[0]):
-        columns[x] = 0.25 * (
-            (up[x + 2] + 2.0 * mid[x + 2] + down[x + 2]) - (up[x] + 2.0 * mid[x] + down[x])
-        )
-
-
-@cached_njit(nogil=True)
-def centred_sums(first, second, first_mean, second_mean, sums, y0, y1):
-    """``sums[y]``: the sums of ``(a - ma)**2`` and of ``(b - mb)**2`` over row y."""
-    width = first.shape[1]
-    squares = np.empty(width)
-    for y in range(y0, y1):
-        a = first[y]
-        b = second[y]
-        for x in range(width):
-            squares[x] = (a[x] - first_mean) * (a[x] - first_mean)
-        sums[y, 0] = _sum(squares)
-        for x in range(width):
-            squares[x] = (b[x] - second_mean) * (b[x] - second_mean)
-        sums[y, 1] = _sum(squares)
-
-
-@cached_njit(nogil=True)
-def added_edge_sums(after, before, edges, added_mean, edges_mean, sums, y0, y1):
+@cached_njit(nogil=True, error_model="numpy", no_cfunc_wrapper=True)
+def edge_sums(after, before, edges, added_mean, edges_mean, sums, y0, y1):
     """For ``a = after - before`` and ``s = edges``, ``sums[y]`` gets, over row y:
-    ``sum((a - ma)(s - ms))``, ``sum((a - ma)**2)``, min(a), max(a)."""
+    ``sum((a - ma)(s - ms))``, ``sum((a - ma)**2)``, min(a), max(a) and ``sum((s - ms)**2)``
+    (:func:`_sum` of the squares)."""
     width = after.shape[1]
+    squares = np.empty((1, width))[0]
     for y in range(y0, y1):
         a = after[y]
         b = before[y]
@@ -1749,49 +1102,47 @@ def added_edge_sums(after, before, edges, added_mean, edges_mean, sums, y0, y1):
         sums[y, 1] = spread
         sums[y, 2] = low
         sums[y, 3] = high
+        for x in range(width):
+            squares[x] = (s[x] - edges_mean) * (s[x] - edges_mean)
+        sums[y, 4] = _sum(squares)
 
 
-@cached_njit(nogil=True)
-def wall_pair_counts(walls, positive, y0, y1):
-    """Per lattice direction d: pixels p with walls at p and p + d (wrapping, as ``np.roll``),
-    and among them those where ``positive`` differs between p and p + d."""
+@cached_njit(nogil=True, error_model="numpy", no_cfunc_wrapper=True)
+def wall_pair_counts(walls, positive, counts, y0, y1):
+    """``counts[y, d]``, per lattice direction d: pixels p of row y with walls at p and
+    p + d (wrapping, as ``np.roll``), and among them those where ``positive`` differs
+    between p and p + d."""
     height, width = walls.shape
-    counts = np.zeros((4, 2), dtype=np.int64)
     for k in range(4):
         dy = FAMILIES[k][0]
         dx = FAMILIES[k][1]
-        lo = max(0, -dx)  # x + dx inside the row for x in [lo, hi)
-        hi = min(width, width - dx)
         for y in range(y0, y1):
             ahead = (y + dy) % height
-            both, flips = _pair_counts(
-                walls[y, lo:hi],
-                walls[ahead, lo + dx : hi + dx],
-                positive[y, lo:hi],
-                positive[ahead, lo + dx : hi + dx],
-            )
-            for x in list(range(lo)) + list(range(hi, width)):  # the wrapped ends
+            row = walls[y]
+            next_row = walls[ahead]
+            signs = positive[y]
+            next_signs = positive[ahead]
+            lo = max(0, -dx)  # x + dx inside the row for x in [lo, hi)
+            hi = min(width, width - dx)
+            here, there = row[lo:hi], next_row[lo + dx : hi + dx]
+            sign, next_sign = signs[lo:hi], next_signs[lo + dx : hi + dx]
+            both = 0
+            flips = 0
+            for x in range(hi - lo):
+                pair = np.uint8(here[x]) & np.uint8(there[x])
+                both += pair
+                flips += pair & (np.uint8(sign[x]) ^ np.uint8(next_sign[x]))
+            if dx != 0:  # the wrapped end
+                x = 0 if dx < 0 else width - 1
                 xn = (x + dx) % width
-                if walls[y, x] and walls[ahead, xn]:
+                if row[x] and next_row[xn]:
                     both += 1
-                    flips += positive[y, x] != positive[ahead, xn]
-            counts[k, 0] += both
-            counts[k, 1] += flips
-    return counts
+                    flips += signs[x] != next_signs[xn]
+            counts[y, k, 0] = both
+            counts[y, k, 1] = flips
 
 
-@cached_njit(nogil=True)
-def _pair_counts(walls, next_walls, signs, next_signs):
-    both = 0
-    flips = 0
-    for x in range(walls.shape[0]):
-        pair = np.uint8(walls[x]) & np.uint8(next_walls[x])
-        both += pair
-        flips += pair & (np.uint8(signs[x]) ^ np.uint8(next_signs[x]))
-    return both, flips
-
-
-@cached_njit(nogil=True)
+@cached_njit(nogil=True, error_model="numpy", no_cfunc_wrapper=True)
 def wall_weighted_sums(row_starts, strength, coherent, sums, y0, y1):
     """``sums[y]``: ``sum(coherent * walls)`` and ``sum(strength * walls)`` over row y, from
     maps held at the wall pixels only (row y's from index ``row_starts[y]`` to
@@ -1806,7 +1157,7 @@ def wall_weighted_sums(row_starts, strength, coherent, sums, y0, y1):
         sums[y, 1] = denominator
 
 
-@cached_njit(nogil=True)
+@cached_njit(nogil=True, error_model="numpy", no_cfunc_wrapper=True)
 def alignment_sums(
     walls,
     row_starts,

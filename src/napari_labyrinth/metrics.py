@@ -414,7 +414,6 @@ class _Maps:
         self._taken: list[np.ndarray] = []
         self._lock = threading.RLock()
         self._values: dict[Any, Any] = {}
-        self.exact_decisions = 0  # wall decisions recomputed in float64 (see _metrics_kernels)
 
     def _empty(self, dtype=np.float64) -> np.ndarray:
         """A new plane-shaped array (from the pool, if any)."""
@@ -471,13 +470,28 @@ class _Maps:
         return fine.fine, fine.total
 
     def _fine(self) -> _Fine:
-        """``h``'s sums, and ``h`` itself unless the maps are an original's (made with
-        ``walls=False``) that no one asked for ``h``: then ``fine`` is None (see
-        :meth:`_original`); :meth:`_full_fine` always has ``h``."""
+        """``h``'s sums, and ``h`` itself if a pass kept it: none does for an original's maps
+        (made with ``walls=False``) that no one asked for ``h`` (see :meth:`_original`), nor
+        for a rendering's energy alone (:meth:`energy`); :meth:`_full_fine` always has
+        ``h``."""
         with self._lock:
-            if not self._walls_expected and "fine" not in self._values:
+            for name in ("fine", "sums"):
+                if name in self._values:
+                    return self._values[name]
+            if not self._walls_expected:
                 return self._original()[0]
         return self._full_fine()
+
+    def measure_fine(self) -> None:
+        """Make ``h``'s sums alone (no map kept) unless a pass made them (for
+        :func:`texture_added`)."""
+
+        def compute():
+            return self._fine_sums(None, _NOT_MADE32, self._fine_pass(*_NOT_MADE_MAPS))
+
+        with self._lock:
+            if not {"fine", "original"} & self._values.keys():
+                self._get("sums", compute)
 
     def _original(self) -> tuple[_Fine, np.ndarray, float, np.ndarray, np.ndarray]:
         """An original's sums of ``h``, energy and the energy's sum (``h`` never kept whole),
@@ -486,53 +500,63 @@ class _Maps:
         def compute():
             energy = self._empty()
             edges = self._empty()
-            sums = self._row_sums(8)
-            self._bands(
-                _kernels().energy_band,
-                self.plane,
-                _weights(1.0),
-                _weights(WINDOW_SIGMA),
-                energy,
-                edges,
-                sums,
-            )
-            largest_square = float(sums[:, 1].max())
-            scale = _float32_scale(math.sqrt(largest_square))
-            fine = _Fine(
-                None,
-                np.empty((1, 1), dtype=np.float32),
-                math.fsum(sums[:, 0]),
-                largest_square,
-                _inverse_square(scale),
-                not sums[:, 2].any(),
-                float(sums[:, 3].max()),
-            )
-            return fine, energy, math.fsum(sums[:, 4]), edges, sums[:, 5:]
+            sums = self._fine_pass(_NOT_MADE, _NOT_MADE32, energy, edges)
+            total = math.fsum(sums[:, 4])
+            with self._lock:
+                self._values.setdefault("energy", (energy, total))
+            return self._fine_sums(None, _NOT_MADE32, sums), energy, total, edges, sums[:, 5:]
 
         return self._get("original", compute)
 
+    def _fine_pass(self, fine, fine32, energy, edges) -> np.ndarray:
+        """``_metrics_kernels.fine_scale_band`` on every row: the maps of the arrays of the
+        plane's shape (``_NOT_MADE`` for the others), and the rows' sums."""
+        sums = self._row_sums(8)
+        self._bands(
+            _kernels().fine_scale_band,
+            _kernels().plane_tuple(self.plane),
+            _weights(1.0),
+            _weights(WINDOW_SIGMA),
+            fine,
+            fine32,
+            energy,
+            edges,
+            sums,
+        )
+        return sums
+
+    @staticmethod
+    def _fine_sums(fine, fine32, sums) -> _Fine:
+        """The :class:`_Fine` of ``h`` (None if not kept) from the rows' sums of its pass."""
+        return _Fine(
+            fine,
+            fine32,
+            math.fsum(sums[:, 0]),
+            float(sums[:, 1].max()),
+            not sums[:, 2].any(),
+            float(sums[:, 3].max()),
+        )
+
     def _full_fine(self) -> _Fine:
+        """``h`` and its sums; where walls are expected, its float32 copy (for the walls'
+        orientation) and its energy (the wall pass reads it with ``h``) too, in the same
+        pass."""
+
         def compute():
+            with self._lock:
+                with_energy = self._walls_expected and "energy" not in self._values
             fine = self._empty()
-            if self._walls_expected:
-                fine32 = self._empty(np.float32)
-            else:
-                fine32 = np.empty((1, 1), dtype=np.float32)  # not written (see _lag_plane)
-            sums = self._row_sums(4)
-            self._bands(_kernels().fine_scale_band, self.plane, _weights(1.0), fine, fine32, sums)
-            largest_square = float(sums[:, 1].max())
-            scale = _float32_scale(math.sqrt(largest_square))
+            fine32 = self._empty(np.float32) if self._walls_expected else _NOT_MADE32
+            energy = self._empty() if with_energy else _NOT_MADE
+            sums = self._fine_pass(fine, fine32, energy, _NOT_MADE)
+            if with_energy:
+                with self._lock:
+                    self._values.setdefault("energy", (energy, math.fsum(sums[:, 4])))
+            result = self._fine_sums(fine, fine32, sums)
+            scale = _float32_scale(math.sqrt(result.largest_square))
             if scale != 1.0 and self._walls_expected:  # h**2 would overflow in float32
-                fine32 = (fine * scale).astype(np.float32)
-            return _Fine(
-                fine,
-                fine32,
-                math.fsum(sums[:, 0]),
-                largest_square,
-                _inverse_square(scale),
-                not sums[:, 2].any(),
-                float(sums[:, 3].max()),
-            )
+                result = result._replace(fine32=(fine * scale).astype(np.float32))
+            return result
 
         return self._get("fine", compute)
 
@@ -545,8 +569,9 @@ class _Maps:
         """Per-row partial sums that kernels fill: the totals do not depend on the bands."""
         return np.empty((self.plane.shape[0], count))
 
-    def _lag_plane(self) -> np.ndarray:
-        """``h`` times a power of two in float32, for the lag correlations (see :class:`_Fine`)."""
+    def _fine32(self) -> np.ndarray:
+        """``h`` times a power of two in float32, for the walls' structure tensor (see
+        :class:`_Fine`)."""
         fine = self._full_fine()
         if fine.fine32.shape == fine.fine.shape:
             return fine.fine32
@@ -557,55 +582,43 @@ class _Maps:
 
         return self._get("fine32", compute)
 
-    def _smooth(self, mode, energy, flags) -> tuple[list, float]:
-        """The kernel's results per band and the sum of the energy."""
-        kernels = _kernels()
-        fine = self._full_fine()
-        lag_plane = self._lag_plane() if mode == kernels.MODE_WALLS else fine.fine32
-        sums = self._row_sums(1)
-        results = self._bands(
-            kernels.smooth_band,
-            fine.fine,
-            lag_plane,
-            mode,
-            _weights(WINDOW_SIGMA),
-            _weights(WINDOW_SIGMA, np.float32),
-            ENERGY_FLOOR**2,
-            ALONG_THRESHOLD,
-            ALTERNATION_THRESHOLD,
-            fine.largest_square,
-            fine.lag_scale,
-            energy,
-            flags,
-            sums,
-        )
-        return results, math.fsum(sums[:, 0])
-
     def walls(self) -> tuple[np.ndarray, np.ndarray, float]:
         """The wall map, the energy ``G_2 * h**2`` and the energy's sum."""
 
         def compute():
-            energy = self._empty()
+            fine = self._full_fine()
+            energy, total = self.energy()
             walls = self._empty(bool)
-            results, total = self._smooth(_kernels().MODE_WALLS, energy, walls)
-            self.exact_decisions = sum(r[1] for r in results)
+            self._bands(
+                _kernels().wall_band,
+                fine.fine,
+                _weights(WINDOW_SIGMA),
+                ENERGY_FLOOR**2,
+                ALONG_THRESHOLD,
+                ALTERNATION_THRESHOLD,
+                energy,
+                walls,
+            )
             return walls, energy, total
 
         return self._get("walls", compute)
 
     def energy(self) -> tuple[np.ndarray, float]:
-        """The energy ``G_2 * h**2`` and its sum (without the wall map if it is not known)."""
+        """The energy ``G_2 * h**2`` and its sum: made with ``h`` where the walls need them
+        (:meth:`_full_fine`), with an original's other maps (:meth:`_original`), else alone
+        (``h``'s sums kept, not ``h``)."""
         with self._lock:
-            if "walls" in self._values:
-                _, energy, total = self._values["walls"]
-                return energy, total
+            if "energy" in self._values:
+                return self._values["energy"]
             if not self._walls_expected:
                 return self._original()[1:3]
 
         def compute():
             energy = self._empty()
-            _, total = self._smooth(_kernels().MODE_ENERGY, energy, np.empty((1, 1), bool))
-            return energy, total
+            sums = self._fine_pass(_NOT_MADE, _NOT_MADE32, energy, _NOT_MADE)
+            with self._lock:
+                self._values.setdefault("sums", self._fine_sums(None, _NOT_MADE32, sums))
+            return energy, math.fsum(sums[:, 4])
 
         return self._get("energy", compute)
 
@@ -621,7 +634,11 @@ class _Maps:
             positive = self._empty(bool)
             walls = self.walls()[0]
             self._bands(
-                _kernels().local_mean_band, self.plane, _weights(WINDOW_SIGMA), walls, positive
+                _kernels().local_mean_band,
+                _kernels().plane_tuple(self.plane),
+                _weights(WINDOW_SIGMA),
+                walls,
+                positive,
             )
             return positive
 
@@ -636,12 +653,12 @@ class _Maps:
         (the maps are read on the walls only: a tenth of a plane's memory
         where walls cover a tenth of it). The strengths are those of ``h``
         times a power of two (ratios of them are exact): the tensor reads
-        ``h``'s float32 copy of the wall pass (:meth:`_lag_plane`).
+        ``h``'s float32 copy (:meth:`_fine32`).
         """
 
         def compute():
             walls = self.walls()[0]
-            return _wall_orientation(self._lag_plane(), 1.0, WINDOW_SIGMA, self.workers, walls)
+            return _wall_orientation(self._fine32(), 1.0, WINDOW_SIGMA, self.workers, walls)
 
         return self._get("wall_orientation", compute)
 
@@ -666,7 +683,7 @@ class _Maps:
                 tiles = _tensor_tiles(self.plane.shape[1], sigma)
                 self._values[key] = (maps, np.zeros((self.plane.shape[0], tiles), dtype=bool))
             maps, done = self._values[key]
-            needed = _tiles_with(walls, done.shape[1], self.workers)
+            needed = _tile_counts(walls, done.shape[1], self.workers) > 0
             needed &= ~done
             if needed.any():
                 scale = _float32_scale(self._fine().largest_tone)
@@ -674,32 +691,31 @@ class _Maps:
                 done |= needed
             return maps
 
-    def edges(self) -> tuple[np.ndarray, float, float, bool]:
-        """Sobel magnitude, its mean, ``sum((s - mean)**2)`` and whether it is constant."""
+    def edges(self) -> tuple[np.ndarray, float, bool]:
+        """Sobel magnitude, its mean and whether it is constant (made with the energy:
+        :meth:`_original`)."""
 
         def compute():
-            kernels = _kernels()
-            if self._walls_expected:
-                edges = self._empty()
-                sums = self._row_sums(3)
-                self._bands(kernels.sobel_band, self.plane, edges, sums)
-            else:
-                edges, sums = self._original()[3:]
+            edges, sums = self._original()[3:]
             mean = math.fsum(sums[:, 2]) / edges.size
             constant = bool(sums[:, 0].min() == sums[:, 1].max())
-            spread = self._row_sums(2)
-            self._bands(kernels.centred_sums, edges, edges, mean, mean, spread)
-            return edges, mean, math.fsum(spread[:, 0]), constant
+            return edges, mean, constant
 
         return self._get("edges", compute)
 
 
+#: What stands for a map that :meth:`_Maps._fine_pass` is not asked for (one row: the kernel
+#: writes the maps of the plane's height only).
+_NOT_MADE = np.empty((1, 1))
+_NOT_MADE32 = np.empty((1, 1), dtype=np.float32)
+_NOT_MADE_MAPS = (_NOT_MADE, _NOT_MADE32, _NOT_MADE, _NOT_MADE)
+
+
 class _Fine(NamedTuple):
     fine: np.ndarray | None  # h = g - G_1 * g (None: not kept, see _Maps._original)
-    fine32: np.ndarray  # h * sqrt(1 / lag_scale) in float32 (1 x 1 if not made: _lag_plane)
+    fine32: np.ndarray  # h times a power of two in float32 (1 x 1 if not made: _fine32)
     total: float  # sum(h**2)
     largest_square: float  # max(h**2) over the finite values
-    lag_scale: float  # a power of two
     finite: bool  # no NaN or infinity in h
     largest_tone: float  # max(|g|) over the finite values
 
@@ -710,7 +726,7 @@ def _float32_scale(largest: float) -> float:
     The scale is at most ``2**1023``, float64's largest power of two: a
     subnormal ``largest`` (below ``2**-1022``) comes up to between ``2**-51``
     and 2, still safe. Its square may leave float64's range: divide by the
-    scale twice (:func:`_inverse_square`), never by ``scale**2``.
+    scale twice, never by ``scale**2``.
     """
     if not 0.0 < largest < math.inf or 2.0**-40 <= largest <= 2.0**40:
         return 1.0
@@ -719,11 +735,6 @@ def _float32_scale(largest: float) -> float:
 
 #: The exponent of float64's largest power of two.
 _LARGEST_EXPONENT = sys.float_info.max_exp - 1
-
-
-def _inverse_square(scale: float) -> float:
-    """``1 / scale**2`` for a scale of :func:`_float32_scale`, 0 where it underflows."""
-    return 1.0 / scale / scale
 
 
 def _kernels():
@@ -774,7 +785,7 @@ def _orientation_maps(plane, scale, sigma, mode, workers, needed, outputs):
         kernels.orientation_band,
         plane.shape[0],
         workers,
-        plane,
+        kernels.plane_tuple(plane),
         scale,
         weights,
         mode,
@@ -796,19 +807,19 @@ def _ring_bytes(radius: int, tile: int) -> int:
     return 3 * (2 * radius + 2) * tile * np.dtype(np.float32).itemsize
 
 
-def _tiles_with(walls: np.ndarray, tiles: int, workers) -> np.ndarray:
-    """Which rows of ``tiles`` column tiles hold a pixel of ``walls`` (see ``orientation_band``)."""
-    needed = np.empty((walls.shape[0], tiles), dtype=bool)
-    _in_bands(_kernels().tiles_with, walls.shape[0], workers, walls, needed)
-    return needed
+def _tile_counts(walls: np.ndarray, tiles: int, workers) -> np.ndarray:
+    """The pixels of ``walls`` in each row of ``tiles`` column tiles (see
+    ``orientation_band``)."""
+    counts = np.empty((walls.shape[0], tiles), dtype=np.int64)
+    _in_bands(_kernels().mask_counts, walls.shape[0], workers, walls, counts)
+    return counts
 
 
 def _wall_orientation(plane, scale, sigma, workers, walls):
     """The derived tensor maps (``TENSOR_DERIVED``) of ``plane * scale`` at the pixels of
     ``walls`` only, after the rows' starts (see :meth:`_Maps.wall_orientation`)."""
     kernels = _kernels()
-    counts = np.empty((walls.shape[0], _tensor_tiles(plane.shape[1], sigma)), dtype=np.int64)
-    _in_bands(kernels.mask_counts, walls.shape[0], workers, walls, counts)
+    counts = _tile_counts(walls, _tensor_tiles(plane.shape[1], sigma), workers)
     starts = kernels.mask_starts(counts)
     row_starts = np.append(starts[:, 0], starts[-1, -1] + counts[-1, -1])
     outputs = tuple(np.empty((1, int(row_starts[-1])), dtype=np.float32) for _ in range(4))
@@ -864,7 +875,7 @@ def _tensor(
         kernels.decimated_tensor_band,
         plane.shape[0],
         workers,
-        plane,
+        kernels.plane_tuple(plane),
         scale,
         weights,
         mode,
@@ -897,7 +908,7 @@ def _maps_of(image, name: str = "image") -> _Maps:
 
 def fine_scale(image) -> np.ndarray:
     """The fine-scale component ``h = g - G_1 * g`` of a plane."""
-    fine, _ = _Maps(_kernel_plane(_plane(image))).fine()
+    fine, _ = _Maps(_kernel_plane(_plane(image)), walls=False).fine()
     return fine  # a new array, the caller's own
 
 
@@ -909,6 +920,8 @@ def texture_added(original, rendered) -> float:
     """
     before = _Maps(_kernel_plane(_plane(original, "original")))
     after = _Maps(_kernel_plane(_plane(rendered, "rendered")))
+    before.measure_fine()
+    after.measure_fine()
     return _texture_added(before, after)
 
 
@@ -966,9 +979,9 @@ def _wall_width(maps: _Maps) -> float:
     if maps.cover() < MIN_COVER:
         return math.nan
     walls, _, _ = maps.walls()
-    counts = np.sum(
-        maps._bands(_kernels().wall_pair_counts, walls, maps.above_local_mean()), axis=0
-    )
+    counts = np.empty((walls.shape[0], len(_DIRECTIONS), 2), dtype=np.int64)
+    maps._bands(_kernels().wall_pair_counts, walls, maps.above_local_mean(), counts)
+    counts = counts.sum(axis=0)
     rates = [
         flips / both / math.hypot(dy, dx) if both else math.nan
         for (both, flips), (dy, dx) in zip(counts.tolist(), _DIRECTIONS)
@@ -1132,19 +1145,21 @@ def edge_enhancement(original, rendered) -> float:
     before = _plane(original, "original")
     after = _plane(rendered, "rendered")
     _same_shape(before, after)
-    return _edge_enhancement(_Maps(_kernel_plane(before)), _Maps(_kernel_plane(after)))
+    original_maps = _Maps(_kernel_plane(before), walls=False)  # the energy with the edges
+    return _edge_enhancement(original_maps, _Maps(_kernel_plane(after)))
 
 
 def _edge_enhancement(before: _Maps, after: _Maps) -> float:
-    if not (after.finite and before.finite):
-        return math.nan  # NaN or infinity in either image: so is the correlation
+    # the energies first: their passes give the sums behind ``finite`` (no ``h`` kept)
     energy_after, total_after = after.energy()
     energy_before, total_before = before.energy()
-    edges, edges_mean, edges_spread, edges_constant = before.edges()
+    if not (after.finite and before.finite):
+        return math.nan  # NaN or infinity in either image: so is the correlation
+    edges, edges_mean, edges_constant = before.edges()
     added_mean = (total_after - total_before) / edges.size
-    sums = after._row_sums(4)
+    sums = after._row_sums(5)
     after._bands(
-        _kernels().added_edge_sums,
+        _kernels().edge_sums,
         energy_after,
         energy_before,
         edges,
@@ -1154,6 +1169,7 @@ def _edge_enhancement(before: _Maps, after: _Maps) -> float:
     )
     cross = math.fsum(sums[:, 0])
     spread = math.fsum(sums[:, 1])
+    edges_spread = math.fsum(sums[:, 4])
     added_constant = bool(sums[:, 2].min() == sums[:, 3].max())
     if added_constant or edges_constant:
         return 0.0
