@@ -61,14 +61,26 @@ step's wall time beside the time its bands of rows took on the threads:
 (``--repeats`` processes per tree, interleaved), with each call's user and
 system time and page faults.
 
+``--compile N`` times first calls after an install: in ``N`` rounds, two fresh processes
+per tree (interleaved), each with an empty numba cache of its own (``NUMBA_CACHE_DIR``),
+render a 1024 x 1024 uint16 plane (``labyrinth()``, which compiles the renderer's kernels:
+numba's start in the process is paid there). The first then times ``metrics.describe`` of
+it as float32 against the rendering (:func:`compile_planes`: a smooth plane whose rendering
+has walls on under 1 % of its pixels, so the wall metrics are NaN), then the ``describe``
+of scikit-image's camera at 1024 x 1024 (walls: the structure tensors, the local mean and
+the wall sums compile there); the second times ``Comparison(original).edge_enhancement``
+of the uint16 plane, its first metric (what ``window.find_window`` calls). Each call's wall
+time is printed with the compile time of every metrics kernel (numba's compile events, CPU
+time of the compiling thread; its helpers inside).
+
 ``--release`` times the pool letting its arrays go (``_SHARED_POOL.clear()``,
 what its timer does 10 s after the last use) after a first call, in a fresh
 process per tree and round, and the longest gap a thread ticking every
 0.5 ms saw meanwhile (how long the GIL was held at once).
 
 Run: ``python benchmarks/bench_metrics.py [--against /path/to/main] [--sizes 512 2048 4096]
-[--rounds 3] [--stages] [--bands] [--passes] [--first-calls N] [--release]``. The reference takes
-about a minute per call at 4096 x 4096 on two cores.
+[--rounds 3] [--stages] [--bands] [--passes] [--first-calls N] [--compile N] [--release]``.
+The reference takes about a minute per call at 4096 x 4096 on two cores.
 """
 
 from __future__ import annotations
@@ -338,6 +350,94 @@ def first_calls(trees: dict[str, Path], sizes, runs: int, render: bool = False) 
             )
 
 
+def compile_planes(size: int = 1024) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`compile_call`'s first plane, uint16, and the camera at ``size`` as uint16."""
+    rng = np.random.default_rng(0)
+    y, x = np.indices((size, size))
+    smooth = 30000 + 20000 * np.sin(x / 40.0) * np.cos(y / 55.0) + rng.normal(0, 2000, y.shape)
+    return smooth.clip(0, 65535).astype(np.uint16), camera(size).astype(np.uint16) * 257
+
+
+def compile_call(edge_first: bool) -> None:
+    """One fresh process's first calls (see ``--compile`` in the module; with
+    ``edge_first``, the second process's); JSON on stdout."""
+    import threading
+
+    import numba.core.event as numba_event
+
+    compiles: list[tuple[str, float]] = []
+    local = threading.local()
+
+    class Listener(numba_event.Listener):
+        def on_start(self, event):
+            if not hasattr(local, "starts"):
+                local.starts = []
+            local.starts.append(time.thread_time())
+
+        def on_end(self, event):
+            start = local.starts.pop()
+            dispatcher = event.data["dispatcher"]
+            function = getattr(dispatcher, "py_func", dispatcher)
+            if not local.starts and function.__module__.endswith("_metrics_kernels"):
+                compiles.append((function.__name__, time.thread_time() - start))
+
+    numba_event.register("numba:compile", Listener())
+    from napari_labyrinth import labyrinth, metrics
+
+    smooth, camera_plane = compile_planes()
+    start = time.perf_counter()
+    rendered = labyrinth(smooth)
+    rows = [("labyrinth()", time.perf_counter() - start, [])]
+
+    def edge(original, rendering):
+        return metrics.Comparison(original, workers=1).edge_enhancement(rendering)
+
+    steps = [("Comparison, edge", edge, smooth, rendered)]
+    if not edge_first:
+        steps = [
+            ("describe()", metrics.describe, *(p.astype(np.float32) for p in (smooth, rendered))),
+            ("describe(), walls", metrics.describe, camera_plane, labyrinth(camera_plane, seed=0)),
+        ]
+    for name, function, *planes in steps:
+        del compiles[:]
+        start = time.perf_counter()
+        function(*planes)
+        rows.append((name, time.perf_counter() - start, list(compiles)))
+    print(json.dumps({"source": str(Path(metrics.__file__).parent), "rows": rows}))
+
+
+def compile_calls(trees: dict[str, Path], runs: int) -> None:
+    """``runs`` fresh processes per tree with empty numba caches (see ``--compile``), printed."""
+    import tempfile
+
+    print("first calls in a process with an empty numba cache: wall seconds, and the CPU")
+    print("seconds of numba's compile of each metrics kernel (its helpers inside)")
+    walls: dict[tuple[str, str], list[float]] = {}
+    for run in range(runs):
+        print(f"round {run + 1}/{runs}, load average {os.getloadavg()}", flush=True)
+        for tree in list(trees) if run % 2 == 0 else list(reversed(trees)):
+            rows = []
+            for process in ("1", "2"):
+                with tempfile.TemporaryDirectory() as cache:
+                    environment = dict(
+                        os.environ, PYTHONPATH=str(trees[tree] / "src"), NUMBA_CACHE_DIR=cache
+                    )
+                    command = [sys.executable, __file__, "--child", "--compile", process]
+                    output = subprocess.run(
+                        command, env=environment, capture_output=True, text=True, check=True
+                    )
+                rows += json.loads(output.stdout.splitlines()[-1])["rows"]
+            for name, wall, compiles in rows:
+                walls.setdefault((tree, name), []).append(wall)
+                kernels = ", ".join(f"{kernel} {cpu:.2f}" for kernel, cpu in compiles)
+                print(f"  {tree:<7}{name:<19}{wall:7.2f} s  {kernels}")
+    print(f"\nload average at the end {os.getloadavg()}, {os.cpu_count()} cores")
+    for (tree, name), values in walls.items():
+        print(
+            f"  {tree:<7}{name:<19} best {min(values):6.2f} s, median {np.median(values):6.2f} s"
+        )
+
+
 def release(size: int) -> None:
     """The pool's release of a first call's arrays at ``size``, with a ticking thread; printed."""
     import gc
@@ -496,6 +596,13 @@ def main(argv=None) -> None:
         help="with --first-calls: each process renders the plane before describing it",
     )
     parser.add_argument(
+        "--compile",
+        type=int,
+        default=0,
+        metavar="N",
+        help="N fresh processes per tree with empty numba caches: first calls' compile",
+    )
+    parser.add_argument(
         "--release", action="store_true", help="the pool letting a first call's arrays go"
     )
     parser.add_argument(
@@ -512,7 +619,9 @@ def main(argv=None) -> None:
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
-        if args.first_call is not None:
+        if args.compile:
+            compile_call(edge_first=args.compile == 2)
+        elif args.first_call is not None:
             first_call(args.sizes, args.first_call, args.render_first)
         elif args.release:
             release(args.sizes[0])
@@ -557,6 +666,12 @@ def main(argv=None) -> None:
                 print(f"round {round_number + 1}, load average {os.getloadavg()}", flush=True)
                 for tree in trees if round_number % 2 == 0 else trees[::-1]:
                     run_mode_child(tree, "release", "--sizes", str(size))
+        return
+    if args.compile:
+        trees = {"this": ROOT}
+        if args.against is not None:
+            trees = {"before": args.against.resolve(), "this": ROOT}
+        compile_calls(trees, args.compile)
         return
     if args.first_calls:
         trees = {"this": ROOT}
