@@ -257,16 +257,12 @@ def fine_scale_band(planes, fine_weights, weights, fine, fine32, energy, edges, 
     keep_fine32 = fine32.shape[0] == height
     with_energy = energy.shape[0] == height
     with_edges = edges.shape[0] == height
-    reach = radius if with_energy else 0  # the rows of h the row's energy reads
-    # the plane's rows v that those rows of h read, by virtual row (read reflected), in
-    # slot v % (rows of the ring); and the rows of h**2, likewise
+    reach = radius if with_energy else 0  # the rows of h beyond a row that its energy reads
+    # rings of rows, row v (virtual: read reflected) in slot v % (the ring's rows): the
+    # plane's, as float64, and h**2's. h at a virtual row is h at the row it reflects, float
+    # for float (its Gaussian's taps there pair the same values, added the other way round).
     plane_rows = np.empty((2 * (reach + fine_radius) + 1, width))
     squares = np.empty((2 * radius + 1, width))
-    virtual_rows = np.empty(plane_rows.shape[0] + squares.shape[0], dtype=np.int64)
-    for slot in range(virtual_rows.shape[0]):
-        virtual_rows[slot] = -(2 * height + virtual_rows.shape[0])  # no row
-    plane_virtual = virtual_rows[: plane_rows.shape[0]]
-    square_virtual = virtual_rows[plane_rows.shape[0] :]
     # :func:`_gauss`'s taps down the rings' columns, and along h's and h**2's extended lines
     taps = np.empty((3, 4, max(radius, fine_radius) + 1), dtype=np.int64)
     for j in range(taps.shape[2]):
@@ -286,35 +282,26 @@ def fine_scale_band(planes, fine_weights, weights, fine, fine32, energy, edges, 
     line = lines[2, :width]
     padded = np.empty((3, width + 2))
     first = np.int64(0)  # a literal 0 would make numba compile _load_row once more for it
-    for y in range(y0, y1):
-        for v in range(y - reach, y + reach + 1):
-            slot = v % squares.shape[0]
-            if square_virtual[slot] == v:
-                continue
-            # row ``row`` of h: the plane's rows row - r .. row + r smoothed, down then across
-            row = _reflect(v, height)
-            for u in range(row - fine_radius, row + fine_radius + 1):
-                if plane_virtual[u % plane_rows.shape[0]] != u:
-                    _load_row(planes, _reflect(u, height), first, width,
-                              plane_rows[u % plane_rows.shape[0]])  # fmt: skip
-                    plane_virtual[u % plane_rows.shape[0]] = u
-            for j in range(fine_radius + 1):
-                ring_taps[0, j] = (row - j) % plane_rows.shape[0]
-                ring_taps[1, j] = (row + j) % plane_rows.shape[0]
-            _gauss(plane_rows, ring_taps, fine_weights, ext[fine_radius : fine_radius + width])
-            _reflect_ends(ext, fine_radius, width)
-            _gauss(lines[0:1], taps[1], fine_weights, smooth)
-            tones = plane_rows[row % plane_rows.shape[0]]
-            square = squares[slot]
-            own = v == row and y0 <= row < y1  # not a row of another band, nor a reflection
-            out = fine[row] if own and keep_fine else line
-            for x in range(width):
-                value = tones[x] - smooth[x]
-                out[x] = value
-                square[x] = value * value
-            square_virtual[slot] = v
-            if not own:
-                continue
+    for v in range(y0 - reach - fine_radius, y1 + reach + fine_radius):
+        _load_row(planes, _reflect(v, height), first, width, plane_rows[v % plane_rows.shape[0]])
+        row = v - fine_radius  # the row of h whose rows of the plane the ring now holds
+        if row < y0 - reach:
+            continue
+        for j in range(fine_radius + 1):
+            ring_taps[0, j] = (row - j) % plane_rows.shape[0]
+            ring_taps[1, j] = (row + j) % plane_rows.shape[0]
+        _gauss(plane_rows, ring_taps, fine_weights, ext[fine_radius : fine_radius + width])
+        _reflect_ends(ext, fine_radius, width)
+        _gauss(lines[0:1], taps[1], fine_weights, smooth)
+        tones = plane_rows[row % plane_rows.shape[0]]
+        square = squares[row % squares.shape[0]]
+        own = y0 <= row < y1  # not a row of another band, nor beyond the plane
+        out = fine[row] if own and keep_fine else line
+        for x in range(width):
+            value = tones[x] - smooth[x]
+            out[x] = value
+            square[x] = value * value
+        if own:
             if keep_fine32:
                 out32 = fine32[row]
                 for x in range(width):
@@ -326,9 +313,12 @@ def fine_scale_band(planes, fine_weights, weights, fine, fine32, energy, edges, 
             for x in range(width):
                 smooth[x] = abs(tones[x])
             sums[row, 3] = max(_finite_range(smooth)[1], 0.0)
+        y = row - reach  # the row whose energy reads h's rows up to ``row``
+        if y < y0:
+            continue
         if with_edges:
-            # the plane's rows y - 1, y, y + 1 (in the ring: h's row y read them), with one
-            # column a side (reflect: column -1 is column 0, column W is W - 1)
+            # the plane's rows y - 1, y, y + 1 (in the ring), with one column a side
+            # (reflect: column -1 is column 0, column W is W - 1)
             for k in range(3):
                 tones = plane_rows[(y - 1 + k) % plane_rows.shape[0]]
                 for x in range(width):
