@@ -430,7 +430,7 @@ def compile_calls(trees: dict[str, Path], runs: int) -> None:
             for name, wall, compiles in rows:
                 walls.setdefault((tree, name), []).append(wall)
                 kernels = ", ".join(f"{kernel} {cpu:.2f}" for kernel, cpu in compiles)
-                print(f"  {tree:<7}{name:<19}{wall:7.2f} s  {kernels}")
+                print(f"  {tree:<7}{name:<19}{wall:7.2f} s  {kernels}".rstrip())
     print(f"\nload average at the end {os.getloadavg()}, {os.cpu_count()} cores")
     for (tree, name), values in walls.items():
         print(
