@@ -5,13 +5,19 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test fuzz bench-hostile file-cases bench bench-speed bench-scale bench-widget bench-metrics bench-window bench-cold study gallery screenshot install install-test system-packages clean
+.PHONY: demo test test-fast fuzz bench-hostile file-cases bench bench-speed bench-scale bench-widget bench-metrics bench-window bench-cold study gallery screenshot install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
 
+# Every test, on every core (pytest-xdist: one process per core, tests handed out as
+# workers free up). Lanes by marker: qt (a viewer under Xvfb), subprocess, slow.
 test: $(VENV)/.installed-test system-packages
-	$(PY) -m pytest
+	$(PY) -m pytest -n auto --dist worksteal
+
+# The lanes that need no display and start no process: what a change to core/ re-runs.
+test-fast: $(VENV)/.installed-test
+	$(PY) -m pytest -n auto --dist worksteal -m "not qt and not subprocess and not slow"
 
 # The hostile-input property with 20,000 random examples (make test runs 2,000).
 FUZZ_EXAMPLES ?= 20000

@@ -9,3 +9,12 @@ os.environ.setdefault("XDG_CACHE_HOME", os.path.join(_scratch, "cache"))
 # The widget starts a process that compiles numba's kernels into their cache
 # (napari_labyrinth._warmup); the tests compile in process and test it apart.
 os.environ.setdefault("NAPARI_LABYRINTH_NO_WARMUP", "1")
+
+
+def pytest_collection_modifyitems(config, items):
+    """Every test under tests/_qt drives a viewer: it is in the ``qt`` lane."""
+    import pytest
+
+    for item in items:
+        if "_qt" in item.path.parent.parts:
+            item.add_marker(pytest.mark.qt)
