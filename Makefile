@@ -93,8 +93,9 @@ $(VENV)/.installed: $(PY) pyproject.toml
 	$(PIP) install -e .
 	touch $@
 
+# The tests build the docs site too (tests/test_docs_build.py): the docs extra comes along.
 $(VENV)/.installed-test: $(VENV)/.installed pyproject.toml
-	$(PIP) install -e ".[test]"
+	$(PIP) install -e ".[test,docs]"
 	touch $@
 
 $(VENV)/.installed-docs: $(VENV)/.installed pyproject.toml
