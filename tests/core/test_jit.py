@@ -103,3 +103,34 @@ def test_compiling_names_the_kernel_numba_compiles_now(tmp_path):
         kernel(1)
     assert seen and set(seen) == {"tripled"}
     assert _jit.compiling() is None
+
+
+@pytest.mark.subprocess
+def test_a_change_to_a_helper_in_another_file_compiles_its_kernel_again(tmp_path):
+    """numba's own stamp is the kernel's file's time and size: a helper of another file,
+    compiled into the kernel, changed to text of the same size, went unseen."""
+    package = tmp_path / "kernels"
+    package.mkdir()
+    (package / "helper.py").write_text("from numba import njit\n\n@njit\ndef helper(x):\n    return x + 1\n")
+    (package / "kernel.py").write_text(
+        "from napari_labyrinth.core._jit import cached_njit\n"
+        "from helper import helper\n\n"
+        "@cached_njit()\n"
+        "def kernel(x):\n    return helper(x)\n"
+    )
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=os.pathsep.join(
+        [str(package), *filter(None, [os.environ.get("PYTHONPATH")])]))
+
+    def result():
+        run = subprocess.run(
+            [sys.executable, "-c", "from kernel import kernel; print(kernel(1))"],
+            capture_output=True, text=True, env=env, check=True,
+        )  # fmt: skip
+        return run.stdout.strip()
+
+    assert result() == "2"
+    helper = package / "helper.py"
+    stamp = helper.stat()
+    helper.write_text(helper.read_text().replace("x + 1", "x + 5"))
+    os.utime(helper, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))  # as a reinstall may leave it
+    assert result() == "6"

@@ -6,10 +6,18 @@ else ``$XDG_CACHE_HOME/numba`` or ``~/.cache/numba``). Where none of them can
 be written, ``njit(cache=True)`` refuses the function as it is defined, so
 the package would not import. ``cached_njit`` compiles such kernels in memory
 instead (every new process compiles again) and says so once.
+
+numba takes a cached kernel as current while its own source file keeps its
+modification time and size; the code of the helpers it calls from other files
+is compiled into it, and a change there would go unseen. ``cached_njit``
+stamps a kernel's cache with the contents of its file and of every file its
+helpers come from, so that a change to any of them compiles it again.
 """
 
 from __future__ import annotations
 
+import hashlib
+import inspect
 import threading
 import warnings
 
@@ -47,9 +55,47 @@ def cached_njit(**options):
             if not str(error).startswith(_NO_LOCATOR):
                 raise
             _warn_once()
+        else:
+            _stamp_with_sources(dispatcher)
         return dispatcher
 
     return decorate
+
+
+def _stamp_with_sources(dispatcher) -> None:
+    """Make the cache of ``dispatcher`` current only for the present contents of its
+    file and of the files of the jitted helpers it reaches (numba's own stamp is its
+    file's modification time and size)."""
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    if cache_file is None or not hasattr(cache_file, "_source_stamp"):
+        return  # a numba whose cache differs: its own stamp stands
+    digest = hashlib.sha256()
+    for path in sorted(_source_files(dispatcher.py_func)):
+        with open(path, "rb") as source:
+            digest.update(path.encode() + b"\0" + source.read())
+    cache_file._source_stamp = (cache_file._source_stamp, digest.hexdigest())
+
+
+def _source_files(function, seen: set[str] | None = None) -> set[str]:
+    """The file of ``function`` and those of the jitted functions it reaches through its
+    globals (helpers, tuples of kernels), as the decorator sees them: helpers come from
+    imports at the top of a module or are defined above their caller."""
+    seen = set() if seen is None else seen
+    try:
+        path = inspect.getsourcefile(function)
+    except TypeError:
+        return seen
+    if path is None or path in seen:
+        return seen
+    seen.add(path)
+    values = list(getattr(function, "__globals__", {}).values())
+    while values:
+        value = values.pop()
+        if isinstance(value, tuple):
+            values.extend(value)
+        elif hasattr(value, "py_func") and hasattr(value, "overloads"):  # a dispatcher
+            _source_files(value.py_func, seen)
+    return seen
 
 
 def _warn_once() -> None:
