@@ -6,7 +6,7 @@ the default preset. Timed, interleaved round after round (best of the
 rounds; the machine may be shared, so the load average is printed with
 every round):
 
-- ``reference``: the previous implementation, kept as ``tests/_metrics_reference.py``;
+- ``reference``: the previous implementation, kept as ``tests/metrics/_metrics_reference.py``;
 - ``first pass``: ``Comparison(original).describe(rendered)``, the original's
   own maps included (what ``describe`` costs the first time it sees an input);
 - ``next passes``: ``comparison.describe(rendered)`` on a ``Comparison`` that
@@ -96,7 +96,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))  # the previous implementation, kept for the tests
+sys.path.insert(0, str(ROOT / "tests" / "metrics"))  # the previous implementation
 
 MODES = ("first pass", "next passes", "describe()", "new originals")
 #: scikit-image images behind ``new originals``.
