@@ -155,7 +155,8 @@ def test_describe_steps_yields_every_metric_in_the_order_of_describe(cases):
 
 
 def _count_calls(monkeypatch, *names):
-    from napari_labyrinth import _metrics_kernels
+    """Each call of the kernels ``names`` (looked up on their package, as the metrics do)."""
+    from napari_labyrinth.metrics import _kernels
 
     calls = []
 
@@ -167,7 +168,7 @@ def _count_calls(monkeypatch, *names):
         return count
 
     for name in names:
-        monkeypatch.setattr(_metrics_kernels, name, counting(getattr(_metrics_kernels, name)))
+        monkeypatch.setattr(_kernels, name, counting(getattr(_kernels, name)))
     return calls
 
 
@@ -215,7 +216,7 @@ def test_a_comparisons_edge_enhancement_is_the_one_describe_gives(cases, monkeyp
 
 def test_the_originals_contours_are_computed_where_walls_need_them_once(monkeypatch):
     """Rows of column tiles holding walls, each once; the same values as everywhere."""
-    from napari_labyrinth import _metrics_kernels
+    from napari_labyrinth.metrics import _kernels
 
     rng = np.random.default_rng(3)
     height, width = 96, 1400  # three column tiles
@@ -224,8 +225,8 @@ def test_the_originals_contours_are_computed_where_walls_need_them_once(monkeypa
     walls[10:14, 30:40] = True  # tile 0
     walls[70, 1200] = True  # tile 2
     sigma = metrics.CONTOUR_SIGMA
-    radius = metrics._weights(_metrics_kernels.decimated_sigma(sigma)).shape[0] - 1
-    assert _metrics_kernels.tensor_tiles(width, radius) == 3
+    radius = metrics._weights(_kernels.decimated_sigma(sigma)).shape[0] - 1
+    assert _kernels.tensor_tiles(width, radius) == 3
     everywhere = metrics._Maps(original.copy(), workers=1).contours(sigma, np.ones_like(walls))
     maps = metrics._Maps(original.copy(), workers=1)
     calls = _count_calls(monkeypatch, "decimated_tensor_band")
@@ -330,14 +331,26 @@ def test_metrics_run_on_threads_beside_the_renderer(cases):
             render.result()
 
 
-def test_the_kernels_release_the_gil():
+def _kernel_dispatchers() -> dict:
+    """Every numba dispatcher of the metrics kernels' modules (kernels and helpers), by name."""
+    import importlib
+    import pkgutil
+
     from numba.core.registry import CPUDispatcher
 
-    from napari_labyrinth import _metrics_kernels
+    from napari_labyrinth.metrics import _kernels
 
-    kernels = [
-        value for value in vars(_metrics_kernels).values() if isinstance(value, CPUDispatcher)
-    ]
+    dispatchers = {}
+    for module in pkgutil.iter_modules(_kernels.__path__):
+        found = vars(importlib.import_module(f"{_kernels.__name__}.{module.name}"))
+        for value in found.values():
+            if isinstance(value, CPUDispatcher):
+                dispatchers[value.py_func.__name__] = value
+    return dispatchers
+
+
+def test_the_kernels_release_the_gil():
+    kernels = list(_kernel_dispatchers().values())
     assert len(kernels) > 10
     for kernel in kernels:
         assert kernel.targetoptions.get("nogil"), kernel.py_func.__name__
@@ -420,7 +433,6 @@ def test_the_decimated_contour_tensor_is_close_to_the_doubled_grids(monkeypatch)
     assert np.all(cosine[oriented] > np.cos(np.radians(4)))
 
 
-
 @pytest.mark.parametrize("sigma", [0.5, 2.0, metrics.CONTOUR_SIGMA])
 def test_the_structure_tensor_sees_no_edge_at_the_frame(sigma):
     """The tensor is that of the plane extended by its edge values: a flat plane has no
@@ -461,6 +473,7 @@ def test_contour_alignment_does_not_depend_on_the_originals_offset():
         assert metrics.contour_alignment(shifted, rendered, contour_sigma=0.5) == pytest.approx(
             metrics.contour_alignment(original, rendered, contour_sigma=0.5), rel=1e-5
         )
+
 
 @pytest.mark.parametrize("workers", [1, 3])
 def test_an_originals_energy_without_h_is_the_energy_from_h(cases, monkeypatch, workers):
@@ -659,13 +672,10 @@ def test_planes_read_in_their_own_dtype_give_the_float64_planes_numbers_bit_for_
 
 def test_planes_of_every_dtype_run_the_same_compiled_kernels():
     """numba compiles each kernel once, whatever the planes' dtypes (they come in one tuple,
-    ``_metrics_kernels.plane_tuple``), and each helper once per float type it smooths (no
+    ``metrics._kernels.plane_tuple``), and each helper once per float type it smooths (no
     copy for a literal argument). Read-only arrays, which a caller may pass, are numba's
     other types: not counted."""
     from numba.core import types
-    from numba.core.registry import CPUDispatcher
-
-    from napari_labyrinth import _metrics_kernels
 
     original = (cholesteric_fingerprint((96, 140), seed=2) * 250).astype(np.uint8)
     rendered = labyrinth(original, seed=4)
@@ -679,10 +689,11 @@ def test_planes_of_every_dtype_run_the_same_compiled_kernels():
             return all(writeable(member) for member in argument)
         return not isinstance(argument, types.Array) or argument.mutable
 
-    for name, dispatcher in vars(_metrics_kernels).items():
-        if isinstance(dispatcher, CPUDispatcher):
-            compiled = [s for s in dispatcher.signatures if all(map(writeable, s))]
-            assert len(compiled) <= (2 if name == "_gauss" else 1), (name, compiled)
+    dispatchers = _kernel_dispatchers()
+    assert {"_gauss", "_load_row", "fine_scale_band", "alignment_sums"} <= dispatchers.keys()
+    for name, dispatcher in dispatchers.items():
+        compiled = [s for s in dispatcher.signatures if all(map(writeable, s))]
+        assert len(compiled) <= (2 if name == "_gauss" else 1), (name, compiled)
 
 
 def test_other_dtypes_are_read_as_float64():

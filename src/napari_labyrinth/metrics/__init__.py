@@ -36,8 +36,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .core.parameters import WORKERS, Parameter
-from .core.tone_scale import resolve_tone_scale, validate_tone_limits
+from ..core.parameters import WORKERS, Parameter
+from ..core.tone_scale import resolve_tone_scale, validate_tone_limits
+from ._lazy_kernels import _numba_kernels, _weights
 
 #: Window (Gaussian sigma, pixels) over which local statistics are averaged.
 WINDOW_SIGMA = 2.0
@@ -513,8 +514,8 @@ class _Maps:
         plane's shape (``_NOT_MADE`` for the others), and the rows' sums."""
         sums = self._row_sums(8)
         self._bands(
-            _kernels().fine_scale_band,
-            _kernels().plane_tuple(self.plane),
+            _numba_kernels().fine_scale_band,
+            _numba_kernels().plane_tuple(self.plane),
             _weights(1.0),
             _weights(WINDOW_SIGMA),
             fine,
@@ -590,7 +591,7 @@ class _Maps:
             energy, total = self.energy()
             walls = self._empty(bool)
             self._bands(
-                _kernels().wall_band,
+                _numba_kernels().wall_band,
                 fine.fine,
                 _weights(WINDOW_SIGMA),
                 ENERGY_FLOOR**2,
@@ -634,8 +635,8 @@ class _Maps:
             positive = self._empty(bool)
             walls = self.walls()[0]
             self._bands(
-                _kernels().local_mean_band,
-                _kernels().plane_tuple(self.plane),
+                _numba_kernels().local_mean_band,
+                _numba_kernels().plane_tuple(self.plane),
                 _weights(WINDOW_SIGMA),
                 walls,
                 positive,
@@ -737,25 +738,6 @@ def _float32_scale(largest: float) -> float:
 _LARGEST_EXPONENT = sys.float_info.max_exp - 1
 
 
-def _kernels():
-    from . import _metrics_kernels  # numba is imported on first use only
-
-    return _metrics_kernels
-
-
-_WEIGHTS: dict[tuple[float, str], np.ndarray] = {}
-_WEIGHTS_LOCK = threading.Lock()
-
-
-def _weights(sigma: float, dtype=np.float64) -> np.ndarray:
-    """scipy's Gaussian weights for ``sigma`` (half of the kernel), cached: not to be changed."""
-    key = (float(sigma), np.dtype(dtype).str)
-    with _WEIGHTS_LOCK:
-        if key not in _WEIGHTS:
-            _WEIGHTS[key] = _kernels().gaussian_weights(sigma).astype(dtype)
-        return _WEIGHTS[key]
-
-
 def _read_only(array: np.ndarray) -> np.ndarray:
     """A read-only view: what a caller gets of a shared map.
 
@@ -773,7 +755,7 @@ def _orientation_maps(plane, scale, sigma, mode, workers, needed, outputs):
     ``needed``: the rows of column tiles to compute (see
     ``_metrics_kernels.orientation_band``), None for every pixel.
     """
-    kernels = _kernels()
+    kernels = _numba_kernels()
     weights = _weights(2 * sigma, np.float32)
     if needed is None:
         radius = weights.shape[0] - 1
@@ -811,14 +793,14 @@ def _tile_counts(walls: np.ndarray, tiles: int, workers) -> np.ndarray:
     """The pixels of ``walls`` in each row of ``tiles`` column tiles (see
     ``orientation_band``)."""
     counts = np.empty((walls.shape[0], tiles), dtype=np.int64)
-    _in_bands(_kernels().mask_counts, walls.shape[0], workers, walls, counts)
+    _in_bands(_numba_kernels().mask_counts, walls.shape[0], workers, walls, counts)
     return counts
 
 
 def _wall_orientation(plane, scale, sigma, workers, walls):
     """The derived tensor maps (``TENSOR_DERIVED``) of ``plane * scale`` at the pixels of
     ``walls`` only, after the rows' starts (see :meth:`_Maps.wall_orientation`)."""
-    kernels = _kernels()
+    kernels = _numba_kernels()
     counts = _tile_counts(walls, _tensor_tiles(plane.shape[1], sigma), workers)
     starts = kernels.mask_starts(counts)
     row_starts = np.append(starts[:, 0], starts[-1, -1] + counts[-1, -1])
@@ -839,13 +821,13 @@ def _decimated(sigma: float) -> bool:
 def _tensor_weights(sigma: float) -> np.ndarray:
     """The float32 Gaussian half-kernel of the structure tensor at ``sigma`` (original pixels)."""
     if _decimated(sigma):
-        return _weights(_kernels().decimated_sigma(sigma), np.float32)
+        return _weights(_numba_kernels().decimated_sigma(sigma), np.float32)
     return _weights(2 * sigma, np.float32)  # on the doubled grid
 
 
 def _tensor_tiles(width: int, sigma: float) -> int:
     """Column tiles of the structure tensor at ``sigma`` when only some pixels are asked for."""
-    return _kernels().tensor_tiles(width, _tensor_weights(sigma).shape[0] - 1)
+    return _numba_kernels().tensor_tiles(width, _tensor_weights(sigma).shape[0] - 1)
 
 
 def _tensor(
@@ -860,7 +842,7 @@ def _tensor(
     pixels of ``mask`` only, one after the other); below, the doubled
     grid's (:func:`orientation`'s).
     """
-    kernels = _kernels()
+    kernels = _numba_kernels()
     mode = kernels.TENSOR_COMPONENTS if components else kernels.TENSOR_DERIVED
     if components:
         outputs = (*outputs, np.empty((1, 1), dtype=np.float32))  # not written
@@ -980,7 +962,7 @@ def _wall_width(maps: _Maps) -> float:
         return math.nan
     walls, _, _ = maps.walls()
     counts = np.empty((walls.shape[0], len(_DIRECTIONS), 2), dtype=np.int64)
-    maps._bands(_kernels().wall_pair_counts, walls, maps.above_local_mean(), counts)
+    maps._bands(_numba_kernels().wall_pair_counts, walls, maps.above_local_mean(), counts)
     counts = counts.sum(axis=0)
     rates = [
         flips / both / math.hypot(dy, dx) if both else math.nan
@@ -1036,7 +1018,7 @@ def orientation(image, sigma: float = WINDOW_SIGMA):
         # values would round them to a few bits
         plane = plane * scale
     outputs = tuple(np.empty(plane.shape, dtype=np.float32) for _ in range(4))
-    _orientation_maps(plane, 1.0, sigma, _kernels().TENSOR_COMPONENTS, None, None, outputs)
+    _orientation_maps(plane, 1.0, sigma, _numba_kernels().TENSOR_COMPONENTS, None, None, outputs)
     # the angle and the coherence do not depend on the scale: taken before it is undone
     jrr, jrc, jcc = (component.astype(np.float64) for component in outputs[:3])
     trace = jrr + jcc
@@ -1072,7 +1054,7 @@ def _orientation_coherence(maps: _Maps) -> float:
         return math.nan  # NaN or infinity in h: the weighted sum is NaN
     row_starts, strength, coherent, _, _ = maps.wall_orientation()
     sums = maps._row_sums(2)
-    maps._bands(_kernels().wall_weighted_sums, row_starts, strength, coherent, sums)
+    maps._bands(_numba_kernels().wall_weighted_sums, row_starts, strength, coherent, sums)
     numerator = math.fsum(sums[:, 0])
     denominator = math.fsum(sums[:, 1])
     return numerator / denominator if denominator > 0 else math.nan
@@ -1114,7 +1096,7 @@ def _contour_alignment(before: _Maps, after: _Maps, contour_sigma: float = CONTO
     contour_rr, contour_rc, contour_cc = before.contours(contour_sigma, walls)
     sums = after._row_sums(2)
     after._bands(
-        _kernels().alignment_sums,
+        _numba_kernels().alignment_sums,
         walls,
         row_starts,
         wall_coherent,
@@ -1159,7 +1141,7 @@ def _edge_enhancement(before: _Maps, after: _Maps) -> float:
     added_mean = (total_after - total_before) / edges.size
     sums = after._row_sums(5)
     after._bands(
-        _kernels().edge_sums,
+        _numba_kernels().edge_sums,
         energy_after,
         energy_before,
         edges,
@@ -1220,9 +1202,7 @@ class Comparison:
     True
     """
 
-    def __init__(
-        self, original, *, tone_limits: Any = None, workers: int | None = None
-    ) -> None:
+    def __init__(self, original, *, tone_limits: Any = None, workers: int | None = None) -> None:
         workers = _validate_workers(workers)
         array = _plane(original, "original")
         self._scale = None if tone_limits is None else resolve_tone_scale(array, tone_limits)
