@@ -6,7 +6,7 @@ the default preset. Timed, interleaved round after round (best of the
 rounds; the machine may be shared, so the load average is printed with
 every round):
 
-- ``reference``: the previous implementation, kept as ``tests/_metrics_reference.py``;
+- ``reference``: the previous implementation, kept as ``tests/metrics/_metrics_reference.py``;
 - ``first pass``: ``Comparison(original).describe(rendered)``, the original's
   own maps included (what ``describe`` costs the first time it sees an input);
 - ``next passes``: ``comparison.describe(rendered)`` on a ``Comparison`` that
@@ -96,7 +96,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))  # the previous implementation, kept for the tests
+sys.path.insert(0, str(ROOT / "tests" / "metrics"))  # the previous implementation
 
 MODES = ("first pass", "next passes", "describe()", "new originals")
 #: scikit-image images behind ``new originals``.
@@ -122,6 +122,36 @@ def other_images(size: int) -> list[np.ndarray]:
         image = transform.resize(image, (size, size), order=1, preserve_range=True)
         images.append(image.astype(np.uint8))
     return images
+
+
+def _metrics_modules() -> list:
+    """``napari_labyrinth.metrics`` and its modules imported so far: the tree's private names
+    are in the module (a tree before it became a package) or in the package's modules."""
+    from napari_labyrinth import metrics
+
+    prefix = f"{metrics.__name__}."
+    return [metrics] + [m for n, m in list(sys.modules.items()) if n.startswith(prefix)]
+
+
+def private(name: str):
+    """The private name ``name`` of the tree's metrics, wherever its layout keeps it."""
+    for module in _metrics_modules():
+        if name in vars(module):
+            return vars(module)[name]
+    raise AttributeError(f"napari_labyrinth.metrics has no {name}")
+
+
+def set_private(name: str, value) -> None:
+    """``name`` = ``value`` in every module of the tree's metrics that holds ``name``."""
+    for module in _metrics_modules():
+        if name in vars(module):
+            setattr(module, name, value)
+
+
+def _is_metrics_kernel(module: str) -> bool:
+    """Whether ``module`` holds metrics kernels (``_metrics_kernels`` in a tree before the
+    metrics became a package, ``metrics._kernels``'s modules after)."""
+    return module.endswith("_metrics_kernels") or ".metrics._kernels" in module
 
 
 def usage() -> tuple[float, float, float, int]:
@@ -197,7 +227,10 @@ def _first_call_bytes(original, rendered) -> float:
 
     from napari_labyrinth import metrics
 
-    pool = getattr(metrics, "_SHARED_POOL", None)
+    try:
+        pool = private("_SHARED_POOL")
+    except AttributeError:  # a tree without the pool
+        pool = None
     if pool is not None:
         pool.clear()  # the arrays of earlier calls: a first call in a process has none
     gc.collect()
@@ -233,12 +266,12 @@ def stages(size: int, rounds: int) -> None:
         ("rendering's h", lambda c, a: a._full_fine()),
         ("wall pass", lambda c, a: a.walls()),
         ("local mean", lambda c, a: a.above_local_mean()),
-        ("wall_width", lambda c, a: metrics._wall_width(a)),
+        ("wall_width", lambda c, a: private("_wall_width")(a)),
         ("walls' orientation", lambda c, a: a.wall_orientation()),
-        ("orientation_coherence", lambda c, a: metrics._orientation_coherence(a)),
+        ("orientation_coherence", lambda c, a: private("_orientation_coherence")(a)),
         ("contours", _contours),
-        ("contour_alignment", lambda c, a: metrics._contour_alignment(c._maps, a)),
-        ("edge_enhancement", lambda c, a: metrics._edge_enhancement(c._maps, a)),
+        ("contour_alignment", lambda c, a: private("_contour_alignment")(c._maps, a)),
+        ("edge_enhancement", lambda c, a: private("_edge_enhancement")(c._maps, a)),
     )
     print(f"{size} x {size}, napari_labyrinth from {Path(metrics.__file__).parent}")
     for round_number in range(rounds):
@@ -378,7 +411,7 @@ def compile_call(edge_first: bool) -> None:
             start = local.starts.pop()
             dispatcher = event.data["dispatcher"]
             function = getattr(dispatcher, "py_func", dispatcher)
-            if not local.starts and function.__module__.endswith("_metrics_kernels"):
+            if not local.starts and _is_metrics_kernel(function.__module__):
                 compiles.append((function.__name__, time.thread_time() - start))
 
     numba_event.register("numba:compile", Listener())
@@ -450,7 +483,7 @@ def release(size: int) -> None:
     comparison.describe(rendered)
     del comparison  # the original's arrays go to the pool too
     gc.collect()
-    pool = metrics._SHARED_POOL
+    pool = private("_SHARED_POOL")
     kept = pool.nbytes
     gaps: list[float] = []
     running = threading.Event()
@@ -481,7 +514,7 @@ def release(size: int) -> None:
 
 
 def bands(size: int, rounds: int) -> None:
-    """Each threaded step (``metrics._in_bands``) of ``describe()`` at ``size``: its wall
+    """Each threaded step (the metrics' ``_in_bands``) of ``describe()`` at ``size``: its wall
     time, the time its bands took on the threads, and what is left of two cores; printed.
 
     Round 1 is a first call in a fresh process, the later rounds new originals (the
@@ -490,7 +523,7 @@ def bands(size: int, rounds: int) -> None:
     from napari_labyrinth import metrics
 
     original, rendered = warm_camera_pair(size)
-    in_bands = metrics._in_bands
+    in_bands = private("_in_bands")
     log = []
 
     def traced(kernel, height, workers, *arguments):
@@ -507,7 +540,7 @@ def bands(size: int, rounds: int) -> None:
         log.append((kernel.__name__, time.perf_counter() - start, sum(spans), len(spans)))
         return results
 
-    metrics._in_bands = traced
+    set_private("_in_bands", traced)
     print(f"{size} x {size}, napari_labyrinth from {Path(metrics.__file__).parent}")
     for round_number in range(rounds):
         log.clear()
@@ -527,7 +560,7 @@ def bands(size: int, rounds: int) -> None:
                 f"    {name:<24}{step_wall * 1e3:8.1f}{busy * 1e3:14.1f}"
                 f"{(2 * step_wall - busy) * 1e3:25.1f}{count:7d}"
             )
-        metrics._ORIGINALS = metrics._LastPlane()
+        set_private("_ORIGINALS", private("_LastPlane")())
 
 
 def passes(size: int, rounds: int) -> None:

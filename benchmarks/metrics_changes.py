@@ -2,7 +2,7 @@
 
 For every image of ``benchmarks/study.py`` (256 x 256) and its renderings by
 the default preset (passes 1 and 4, seed 0), on the 0-255 tones the kernel
-sees: every metric of the previous implementation (``tests/_metrics_reference.py``,
+sees: every metric of the previous implementation (``tests/metrics/_metrics_reference.py``,
 "before") and of ``napari_labyrinth.metrics`` ("after"), their relative
 difference, and the fraction of pixels where the two wall maps differ.
 Prints a Markdown table (the one in ``docs/metrics.md``) and the largest
@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))  # the previous implementation
+sys.path.insert(0, str(ROOT / "tests" / "metrics"))  # the previous implementation
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 PASSES = (1, 4)

@@ -9,6 +9,16 @@ import pytest
 from scipy import ndimage
 
 from napari_labyrinth import labyrinth, metrics, samples
+from napari_labyrinth.core.parameters import WORKERS
+from napari_labyrinth.metrics import (
+    _bands,
+    _caches,
+    _comparison,
+    _lazy_kernels,
+    _maps,
+    _planes,
+    _tensor,
+)
 from napari_labyrinth.samples import cholesteric_fingerprint
 
 SIZE = 160
@@ -155,7 +165,8 @@ def test_describe_steps_yields_every_metric_in_the_order_of_describe(cases):
 
 
 def _count_calls(monkeypatch, *names):
-    from napari_labyrinth import _metrics_kernels
+    """Each call of the kernels ``names`` (looked up on their package, as the metrics do)."""
+    from napari_labyrinth.metrics import _kernels
 
     calls = []
 
@@ -167,7 +178,7 @@ def _count_calls(monkeypatch, *names):
         return count
 
     for name in names:
-        monkeypatch.setattr(_metrics_kernels, name, counting(getattr(_metrics_kernels, name)))
+        monkeypatch.setattr(_kernels, name, counting(getattr(_kernels, name)))
     return calls
 
 
@@ -215,7 +226,7 @@ def test_a_comparisons_edge_enhancement_is_the_one_describe_gives(cases, monkeyp
 
 def test_the_originals_contours_are_computed_where_walls_need_them_once(monkeypatch):
     """Rows of column tiles holding walls, each once; the same values as everywhere."""
-    from napari_labyrinth import _metrics_kernels
+    from napari_labyrinth.metrics import _kernels
 
     rng = np.random.default_rng(3)
     height, width = 96, 1400  # three column tiles
@@ -224,10 +235,10 @@ def test_the_originals_contours_are_computed_where_walls_need_them_once(monkeypa
     walls[10:14, 30:40] = True  # tile 0
     walls[70, 1200] = True  # tile 2
     sigma = metrics.CONTOUR_SIGMA
-    radius = metrics._weights(_metrics_kernels.decimated_sigma(sigma)).shape[0] - 1
-    assert _metrics_kernels.tensor_tiles(width, radius) == 3
-    everywhere = metrics._Maps(original.copy(), workers=1).contours(sigma, np.ones_like(walls))
-    maps = metrics._Maps(original.copy(), workers=1)
+    radius = _lazy_kernels._weights(_kernels.decimated_sigma(sigma)).shape[0] - 1
+    assert _kernels.tensor_tiles(width, radius) == 3
+    everywhere = _maps._Maps(original.copy(), workers=1).contours(sigma, np.ones_like(walls))
+    maps = _maps._Maps(original.copy(), workers=1)
     calls = _count_calls(monkeypatch, "decimated_tensor_band")
     partial = maps.contours(sigma, walls)
     assert len(calls) == 1
@@ -330,14 +341,26 @@ def test_metrics_run_on_threads_beside_the_renderer(cases):
             render.result()
 
 
-def test_the_kernels_release_the_gil():
+def _kernel_dispatchers() -> dict:
+    """Every numba dispatcher of the metrics kernels' modules (kernels and helpers), by name."""
+    import importlib
+    import pkgutil
+
     from numba.core.registry import CPUDispatcher
 
-    from napari_labyrinth import _metrics_kernels
+    from napari_labyrinth.metrics import _kernels
 
-    kernels = [
-        value for value in vars(_metrics_kernels).values() if isinstance(value, CPUDispatcher)
-    ]
+    dispatchers = {}
+    for module in pkgutil.iter_modules(_kernels.__path__):
+        found = vars(importlib.import_module(f"{_kernels.__name__}.{module.name}"))
+        for value in found.values():
+            if isinstance(value, CPUDispatcher):
+                dispatchers[value.py_func.__name__] = value
+    return dispatchers
+
+
+def test_the_kernels_release_the_gil():
+    kernels = list(_kernel_dispatchers().values())
     assert len(kernels) > 10
     for kernel in kernels:
         assert kernel.targetoptions.get("nogil"), kernel.py_func.__name__
@@ -361,11 +384,11 @@ def test_bands_and_threads_do_not_change_a_single_bit(monkeypatch, workers):
     original[:120] = 128  # a flat band: no texture, no walls, little work there
     rendered = labyrinth(original, seed=2)
     expected = metrics.Comparison(original, workers=1).describe(rendered)
-    walls = metrics._Maps(rendered.astype(float), workers=1).walls()[0]
+    walls = _maps._Maps(rendered.astype(float), workers=1).walls()[0]
     assert 0.02 < walls.mean() < 0.6  # the test needs walls, not everywhere
-    monkeypatch.setattr(metrics, "_MIN_BAND_ROWS", 7)  # 333 rows: up to 47 bands
+    monkeypatch.setattr(_bands, "_MIN_BAND_ROWS", 7)  # 333 rows: up to 47 bands
     assert metrics.Comparison(original, workers=workers).describe(rendered) == expected
-    maps = metrics._Maps(rendered.astype(float), workers=workers)
+    maps = _maps._Maps(rendered.astype(float), workers=workers)
     np.testing.assert_array_equal(maps.walls()[0], walls)
 
 
@@ -374,9 +397,9 @@ def test_maps_made_without_walls_give_the_same_walls_when_asked(cases, tone):
     """An original's maps skip h's float32 copy; asked for walls, they make it as the kernel
     does (scaled by a power of two for huge tones)."""
     plane = cases["labyrinth"] * tone
-    expected = metrics._Maps(plane.copy(), workers=1).walls()
-    lazy = metrics._Maps(plane.copy(), workers=1, walls=False)
-    assert lazy.fine()[1] == metrics._Maps(plane.copy()).fine()[1]  # h first, without the copy
+    expected = _maps._Maps(plane.copy(), workers=1).walls()
+    lazy = _maps._Maps(plane.copy(), workers=1, walls=False)
+    assert lazy.fine()[1] == _maps._Maps(plane.copy()).fine()[1]  # h first, without the copy
     walls = lazy.walls()
     assert walls[0].any()
     np.testing.assert_array_equal(walls[0], expected[0])
@@ -409,16 +432,15 @@ def test_the_decimated_contour_tensor_is_close_to_the_doubled_grids(monkeypatch)
     original = samples.camera()[100:356, 150:406].astype(float)
     everywhere = np.ones(original.shape, dtype=bool)
     sigma = metrics.CONTOUR_SIGMA
-    decimated = _derived(metrics._Maps(original.copy(), workers=1).contours(sigma, everywhere))
-    monkeypatch.setattr(metrics, "_DECIMATED_SIGMA", math.inf)  # the doubled grid's
-    exact = _derived(metrics._Maps(original.copy(), workers=1).contours(sigma, everywhere))
+    decimated = _derived(_maps._Maps(original.copy(), workers=1).contours(sigma, everywhere))
+    monkeypatch.setattr(_tensor, "_DECIMATED_SIGMA", math.inf)  # the doubled grid's
+    exact = _derived(_maps._Maps(original.copy(), workers=1).contours(sigma, everywhere))
     largest = exact[0].max()
     assert np.abs(decimated[0] - exact[0]).max() < 1e-2 * largest
     assert np.abs(decimated[0] - exact[0]).max() > 1e-6 * largest  # not the same window
     oriented = exact[0] > 1e-2 * largest
     cosine = decimated[2] * exact[2] + decimated[3] * exact[3]  # cos of twice the difference
     assert np.all(cosine[oriented] > np.cos(np.radians(4)))
-
 
 
 @pytest.mark.parametrize("sigma", [0.5, 2.0, metrics.CONTOUR_SIGMA])
@@ -431,18 +453,18 @@ def test_the_structure_tensor_sees_no_edge_at_the_frame(sigma):
     for value in (0.0, 130.0, 1e5):
         flat = np.full(everywhere.shape, value)
         assert np.all(metrics.orientation(flat, sigma)[2] == 0)
-        for component in metrics._Maps(flat, workers=1).contours(sigma, everywhere):
+        for component in _maps._Maps(flat, workers=1).contours(sigma, everywhere):
             assert np.all(component == 0)
     plane = samples.camera()[200:240, 300:352].astype(float) / 2
     expected = metrics.orientation(plane, sigma)
-    tensor = metrics._Maps(plane.copy(), workers=1).contours(sigma, everywhere)
+    tensor = _maps._Maps(plane.copy(), workers=1).contours(sigma, everywhere)
     largest = expected[2].max()
     for offset in (100.0, 1000.0):
         angle, coherence, strength = metrics.orientation(plane + offset, sigma)
         np.testing.assert_allclose(strength, expected[2], rtol=0, atol=1e-5 * largest)
         oriented = expected[2] > 1e-2 * largest
         np.testing.assert_allclose(np.cos(2 * (angle - expected[0]))[oriented], 1, atol=1e-6)
-        shifted = metrics._Maps(plane + offset, workers=1).contours(sigma, everywhere)
+        shifted = _maps._Maps(plane + offset, workers=1).contours(sigma, everywhere)
         for got, component in zip(shifted, tensor):
             np.testing.assert_allclose(got, component, rtol=0, atol=1e-5 * largest)
 
@@ -462,12 +484,13 @@ def test_contour_alignment_does_not_depend_on_the_originals_offset():
             metrics.contour_alignment(original, rendered, contour_sigma=0.5), rel=1e-5
         )
 
+
 @pytest.mark.parametrize("workers", [1, 3])
 def test_an_originals_energy_without_h_is_the_energy_from_h(cases, monkeypatch, workers):
     """An original's maps make the energy from rows of h they do not keep, and the Sobel
     edges in the same pass: the floats of h's map smoothed (energy, sums, finiteness,
     largest tone) and of the Sobel kernel alone, bit for bit, in any bands."""
-    monkeypatch.setattr(metrics, "_MIN_BAND_ROWS", 5)
+    monkeypatch.setattr(_bands, "_MIN_BAND_ROWS", 5)
     rng = np.random.default_rng(4)
     holes = cases["labyrinth"].copy()
     holes[7, 9] = np.nan
@@ -483,8 +506,8 @@ def test_an_originals_energy_without_h_is_the_energy_from_h(cases, monkeypatch, 
         rng.integers(0, 256, (20, 4)).astype(float),
     ]
     for plane in planes:
-        original = metrics._Maps(plane.copy(), workers=workers, walls=False)
-        whole = metrics._Maps(plane.copy(), workers=workers)
+        original = _maps._Maps(plane.copy(), workers=workers, walls=False)
+        whole = _maps._Maps(plane.copy(), workers=workers)
         energy, total = original.energy()
         expected_energy, expected_total = whole.energy()
         np.testing.assert_array_equal(energy, expected_energy)
@@ -506,9 +529,9 @@ def test_the_decimated_tensor_of_a_ramp_is_the_doubled_grids(monkeypatch, angle)
     y, x = np.mgrid[:80, :90].astype(float)
     ramp = 100 + 3 * (np.cos(angle) * y + np.sin(angle) * x)
     everywhere = np.ones(ramp.shape, dtype=bool)
-    decimated = _derived(metrics._Maps(ramp.copy(), workers=1).contours(2.0, everywhere))
-    monkeypatch.setattr(metrics, "_DECIMATED_SIGMA", math.inf)
-    exact = _derived(metrics._Maps(ramp.copy(), workers=1).contours(2.0, everywhere))
+    decimated = _derived(_maps._Maps(ramp.copy(), workers=1).contours(2.0, everywhere))
+    monkeypatch.setattr(_tensor, "_DECIMATED_SIGMA", math.inf)
+    exact = _derived(_maps._Maps(ramp.copy(), workers=1).contours(2.0, everywhere))
     inside = (slice(20, -20), slice(20, -20))
     for d, e in zip(decimated, exact):
         np.testing.assert_allclose(d[inside], e[inside], rtol=1e-5, atol=1e-6)
@@ -533,18 +556,18 @@ def test_maps_made_in_the_arrays_of_earlier_maps_are_the_same(cases, monkeypatch
     """Comparisons take their arrays from a pool that earlier maps gave back: arrays full of
     stale values (NaN, bools that are neither 0 nor 1) give the same metrics as new ones."""
     original, rendered = cases["original"], cases["labyrinth"]
-    monkeypatch.setattr(metrics, "_SHARED_POOL", metrics._Pool(pixel_bytes=10**6))
+    monkeypatch.setattr(_comparison, "_SHARED_POOL", _caches._Pool(pixel_bytes=10**6))
     expected = metrics.Comparison(original, workers=1).describe(rendered)
-    metrics._SHARED_POOL.clear()
-    metrics._SHARED_POOL.give(_poisoned(original.shape))
+    _comparison._SHARED_POOL.clear()
+    _comparison._SHARED_POOL.give(_poisoned(original.shape))
     comparison = metrics.Comparison(original, workers=2)
-    assert metrics._SHARED_POOL.nbytes < 12 * 13 * original.size  # arrays were taken
+    assert _comparison._SHARED_POOL.nbytes < 12 * 13 * original.size  # arrays were taken
     for _ in range(2):  # the second pass on the arrays the first gave back
         assert comparison.describe(rendered) == expected
 
 
 def test_the_pool_keeps_one_shape_a_bounded_number_of_bytes_for_a_while():
-    pool = metrics._Pool(pixel_bytes=20, idle=0.05)
+    pool = _caches._Pool(pixel_bytes=20, idle=0.05)
     pool.give([np.empty((4, 5)), np.empty((4, 5)), np.empty((4, 5)), np.empty((4, 5), "f4")])
     assert pool.nbytes == (8 + 8 + 4) * 20  # 20 bytes a pixel: a third float64 is not kept
     kept = pool.take((4, 5), np.float32)
@@ -565,20 +588,20 @@ def test_a_comparison_gives_its_originals_maps_back_when_it_is_gone(cases, monke
     import gc
 
     original, rendered = cases["original"], cases["labyrinth"]
-    monkeypatch.setattr(metrics, "_SHARED_POOL", metrics._Pool(pixel_bytes=10**6))
+    monkeypatch.setattr(_comparison, "_SHARED_POOL", _caches._Pool(pixel_bytes=10**6))
     comparison = metrics.Comparison(original, workers=1)
     comparison.describe(rendered)
-    after_pass = metrics._SHARED_POOL.nbytes  # the rendering's maps
+    after_pass = _comparison._SHARED_POOL.nbytes  # the rendering's maps
     assert after_pass > 0
     del comparison
     gc.collect()
-    assert metrics._SHARED_POOL.nbytes > after_pass  # the original's plane and maps too
+    assert _comparison._SHARED_POOL.nbytes > after_pass  # the original's plane and maps too
 
 
 def test_a_finalizer_gives_arrays_back_without_waiting_for_the_pool():
     """The garbage collector may finalize a Comparison in a thread inside the pool (holding
     its lock): the arrays wait for the pool's next use instead of a deadlock."""
-    pool = metrics._Pool(idle=60.0)
+    pool = _caches._Pool(idle=60.0)
     with pool._lock:  # held, as by a thread inside give()
         finalizer = threading.Thread(target=pool.give_later, args=([np.empty((4, 5))],))
         finalizer.start()
@@ -593,18 +616,18 @@ def test_a_finalizer_gives_arrays_back_without_waiting_for_the_pool():
 def test_guided_bands_cover_the_rows_once_and_shrink(height, workers):
     """The bands of ``_in_bands`` cover every row once, in order, none shorter than
     ``_MIN_BAND_ROWS``, each no longer than the one before but the last (a remainder)."""
-    edges = metrics._guided_edges(height, workers)
+    edges = _bands._guided_edges(height, workers)
     sizes = np.diff(edges)
     assert edges[0] == 0 and edges[-1] == height
-    assert np.all(sizes >= metrics._MIN_BAND_ROWS)
+    assert np.all(sizes >= _bands._MIN_BAND_ROWS)
     assert np.all(np.diff(sizes[:-1]) <= 0)
-    assert sizes[-1] < 2 * metrics._MIN_BAND_ROWS or len(sizes) == 1
+    assert sizes[-1] < 2 * _bands._MIN_BAND_ROWS or len(sizes) == 1
 
 
 def test_guided_bands_of_a_2048_row_plane_on_two_threads():
     """Each band a quarter of the rows left (rounded up), at least 64 rows; the last
     takes the 76 rows left after two bands of 64."""
-    edges = metrics._guided_edges(2048, 2)
+    edges = _bands._guided_edges(2048, 2)
     assert np.diff(edges).tolist() == [512, 384, 288, 216, 162, 122, 91, 69, 64, 64, 76]
 
 
@@ -613,12 +636,12 @@ def test_a_copy_in_bands_is_the_plane_in_float64(workers):
     rng = np.random.default_rng(1)
     source = rng.integers(0, 65536, size=(300, 257), dtype=np.uint16)[:, ::2]  # strided
     target = np.full(source.shape, np.nan)
-    metrics._copy_in_bands(target, source, workers)
+    _bands._copy_in_bands(target, source, workers)
     np.testing.assert_array_equal(target, source.astype(np.float64))
 
 
 def test_the_pool_keeps_one_shape_and_lets_everything_go_when_cleared():
-    pool = metrics._Pool(idle=60.0)
+    pool = _caches._Pool(idle=60.0)
     pool.give([np.empty((8, 8)), np.empty((8, 8), np.float32)])
     assert pool.nbytes == 8 * 8 * 12
     pool.give([np.empty((4, 4))])  # another shape: the first shape's arrays go
@@ -647,8 +670,8 @@ def test_planes_read_in_their_own_dtype_give_the_float64_planes_numbers_bit_for_
     assert comparison.describe(rendered) == expected
     assert metrics.describe(original, rendered) == expected
     assert not math.isnan(expected["contour_alignment"])
-    single = metrics._Maps(metrics._kernel_plane(rendered), workers=2)
-    floats = metrics._Maps(as_floats[1], workers=2)
+    single = _maps._Maps(_planes._kernel_plane(rendered), workers=2)
+    floats = _maps._Maps(as_floats[1], workers=2)
     for ours, theirs in zip(single.walls(), floats.walls()):
         np.testing.assert_array_equal(ours, theirs)
     np.testing.assert_array_equal(single.fine()[0], floats.fine()[0])
@@ -659,13 +682,10 @@ def test_planes_read_in_their_own_dtype_give_the_float64_planes_numbers_bit_for_
 
 def test_planes_of_every_dtype_run_the_same_compiled_kernels():
     """numba compiles each kernel once, whatever the planes' dtypes (they come in one tuple,
-    ``_metrics_kernels.plane_tuple``), and each helper once per float type it smooths (no
+    ``metrics._kernels.plane_tuple``), and each helper once per float type it smooths (no
     copy for a literal argument). Read-only arrays, which a caller may pass, are numba's
     other types: not counted."""
     from numba.core import types
-    from numba.core.registry import CPUDispatcher
-
-    from napari_labyrinth import _metrics_kernels
 
     original = (cholesteric_fingerprint((96, 140), seed=2) * 250).astype(np.uint8)
     rendered = labyrinth(original, seed=4)
@@ -679,24 +699,25 @@ def test_planes_of_every_dtype_run_the_same_compiled_kernels():
             return all(writeable(member) for member in argument)
         return not isinstance(argument, types.Array) or argument.mutable
 
-    for name, dispatcher in vars(_metrics_kernels).items():
-        if isinstance(dispatcher, CPUDispatcher):
-            compiled = [s for s in dispatcher.signatures if all(map(writeable, s))]
-            assert len(compiled) <= (2 if name == "_gauss" else 1), (name, compiled)
+    dispatchers = _kernel_dispatchers()
+    assert {"_gauss", "_load_row", "fine_scale_band", "alignment_sums"} <= dispatchers.keys()
+    for name, dispatcher in dispatchers.items():
+        compiled = [s for s in dispatcher.signatures if all(map(writeable, s))]
+        assert len(compiled) <= (2 if name == "_gauss" else 1), (name, compiled)
 
 
 def test_other_dtypes_are_read_as_float64():
     for dtype in (np.int8, np.int16, np.int32, np.uint32, np.float32, np.float64):
-        assert metrics._kernel_dtype(dtype) == np.float64
-    assert metrics._kernel_plane(np.zeros((4, 4), np.int16)).dtype == np.float64
+        assert _planes._kernel_dtype(dtype) == np.float64
+    assert _planes._kernel_plane(np.zeros((4, 4), np.int16)).dtype == np.float64
 
 
 def test_the_originals_contours_are_made_in_the_bytes_of_the_renderings_h(cases, monkeypatch):
     """h and its float32 copy are done with once the walls' orientation is made: the
     contours that follow take their bytes (no new memory), and the numbers are those of
     maps made in arrays of their own."""
-    pool = metrics._Pool(idle=60.0)
-    monkeypatch.setattr(metrics, "_SHARED_POOL", pool)
+    pool = _caches._Pool(idle=60.0)
+    monkeypatch.setattr(_comparison, "_SHARED_POOL", pool)
     original, rendered = cases["original"], cases["labyrinth"]
     comparison = metrics.Comparison(original, workers=2)
     after = comparison._rendering_maps(rendered)
@@ -715,7 +736,7 @@ def test_the_local_mean_at_the_walls_is_scipys_gaussian_bit_for_bit(cases):
     (``reflect``) of the plane, float for float; the other pixels are False."""
     wide = np.tile(cases["labyrinth"], (1, 7))[:, :1100]  # a column tile inside the plane
     for plane in (cases["labyrinth"], cases["labyrinth"][:, :150] * 3.7, wide):
-        maps = metrics._Maps(np.ascontiguousarray(plane), workers=2)
+        maps = _maps._Maps(np.ascontiguousarray(plane), workers=2)
         walls = maps.walls()[0]
         assert 0.02 < walls.mean() < 0.6
         expected = plane > ndimage.gaussian_filter(plane, metrics.WINDOW_SIGMA, mode="reflect")
@@ -791,10 +812,10 @@ def test_the_bounds_of_sigma_are_usable(cases):
 def test_a_wide_windows_tensor_in_column_tiles_is_the_whole_rows(monkeypatch):
     """Past ``_FULL_WIDTH_RING_BYTES`` the rows are cut into tiles: the same numbers."""
     plane = np.tile(cholesteric_fingerprint(shape=(24, 64)), (1, 40)).astype(np.float64)
-    radius = metrics._weights(2 * 40.0, np.float32).shape[0] - 1
-    assert metrics._ring_bytes(radius, plane.shape[1]) > metrics._FULL_WIDTH_RING_BYTES
+    radius = _lazy_kernels._weights(2 * 40.0, np.float32).shape[0] - 1
+    assert _tensor._ring_bytes(radius, plane.shape[1]) > _tensor._FULL_WIDTH_RING_BYTES
     tiled = metrics.orientation(plane, 40.0)
-    monkeypatch.setattr(metrics, "_FULL_WIDTH_RING_BYTES", math.inf)
+    monkeypatch.setattr(_tensor, "_FULL_WIDTH_RING_BYTES", math.inf)
     for got, expected in zip(tiled, metrics.orientation(plane, 40.0)):
         np.testing.assert_array_equal(got, expected)
 
@@ -818,7 +839,7 @@ def test_bad_workers_get_the_message_of_labyrinth(cases, workers):
 
 
 def test_workers_none_is_every_core_within_the_bound(cases):
-    assert 1 <= metrics._default_workers() <= metrics.WORKERS.high
+    assert 1 <= _bands._default_workers() <= WORKERS.high
     original, rendered = cases["original"], cases["labyrinth"]
     assert metrics.describe(original, rendered, workers=None) == metrics.describe(
         original, rendered, workers=1

@@ -13,7 +13,7 @@ Tolerances, and why:
   2e-3. Both structure tensors (the walls' at sigma 2, the input's contours
   at sigma 4) are a different window now: the doubled grid's products are
   filtered 1-2-1 and sampled on the original grid, then smoothed by a
-  Gaussian of the same total variance (``_metrics_kernels.decimated_tensor_band``),
+  Gaussian of the same total variance (``metrics._kernels.decimated_tensor_band``),
   where the reference smooths the doubled grid itself; the windows differ by
   a few per cent of a weight (linear interpolation of the Gaussian between
   its even taps). On these cases the coherence moves by at most 2.7e-4

@@ -1,7 +1,7 @@
 """The previous implementation of ``napari_labyrinth.metrics``, kept as the tests' oracle.
 
 Unchanged but for this paragraph: scipy and scikit-image filters over
-float64 planes, one metric at a time. ``tests/test_metrics_reference.py``
+float64 planes, one metric at a time. ``tests/metrics/test_metrics_reference.py``
 checks the current implementation against it; ``benchmarks/bench_metrics.py``
 times both.
 
