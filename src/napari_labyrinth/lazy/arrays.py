@@ -15,7 +15,8 @@ from typing import Any
 import numpy as np
 
 from .._budget import refuse_unaffordable
-from ..core.planes import PlaneLayout, normalise_channel_axis, resolve_alpha, validate_shape
+from .._rendering import plane_layout
+from ..core.planes import validate_shape
 from ..core.tone_scale import validate_dtype
 
 
@@ -50,13 +51,11 @@ def checked_lazy(image, channel_axis, alpha):
     dtype = validate_dtype(given if given.isnative else given.newbyteorder("="))
     _check_known_shape(image)
     validate_shape(image.shape)
-    channel_axis = normalise_channel_axis(channel_axis, image.ndim)
-    has_alpha = resolve_alpha(alpha, image.shape, channel_axis)
-    layout = PlaneLayout(tuple(image.shape), channel_axis, alpha=has_alpha)
+    layout = plane_layout(image.shape, channel_axis, alpha)
     refuse_unaffordable("image", layout.plane_shape, dtype, planes=1, what="each plane")
     if dtype != given:
         image = image.astype(dtype)
-    return image, channel_axis, has_alpha, layout
+    return image, layout.channel_axis, layout.has_alpha, layout
 
 
 def _check_known_shape(image) -> None:

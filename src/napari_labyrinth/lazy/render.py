@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from .._budget import refuse_unaffordable_result
-from .._engine import render, run_to_end
-from ..core.colour import TONES, LuminancePlanes
+from .._engine import run_to_end
+from .._rendering import colour_planes, render_planes, renders_luminance
 from ..core.parameters import LabyrinthParameters
-from ..core.planes import PlaneLayout, resolve_layout_colour, validate_stream_range
+from ..core.planes import PlaneLayout, validate_stream_range
 from ..core.tone_scale import resolve_tone_scale
 from .arrays import checked_lazy
 from .tone_limits import streamed_limits
@@ -57,7 +57,7 @@ def render_lazy(
         refuse_unaffordable_result(
             layout.plane_shape, dtype, parameters.passes + 1, what, lazy=True
         )
-    in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
+    in_luminance = renders_luminance(colour, layout, alpha)
     if tone_limits is None:
         tone_limits = streamed_limits(image, channel_axis, has_alpha, in_luminance)
     scale = resolve_tone_scale(np.empty(0, dtype), tone_limits)
@@ -79,28 +79,11 @@ def render_lazy(
             leading_total=leading_total,
             alpha=has_alpha,
         )
-        if not in_luminance:
-            rendering = render(block, layout, scale, parameters, seed, record_passes=record_passes)
-            result, _ = run_to_end(rendering)
-            return result
-        grey = LuminancePlanes(block, scale=scale)  # the block is in the layout of planes
-        rendering = render(
-            grey.tones,
-            layout.luminance_layout(),
-            TONES,
-            parameters,
-            seed,
-            record_passes=record_passes,
+        _, grey = colour_planes(block, layout, luminance=in_luminance, scale=scale)
+        rendering = render_planes(
+            block, layout, scale, grey, parameters, seed, record_passes=record_passes
         )
-        tones, _ = run_to_end(rendering)
-        if not record_passes:
-            result = block.copy()
-            grey.put_back_all(result, tones)
-            return result
-        result = np.empty((parameters.passes + 1,) + block.shape, dtype=block.dtype)
-        result[...] = block
-        for k in range(1, parameters.passes + 1):
-            grey.put_back_all(result[k], tones[k])
+        result, _ = run_to_end(rendering)
         return result
 
     if record_passes:

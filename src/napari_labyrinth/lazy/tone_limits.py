@@ -13,8 +13,9 @@ from typing import Any
 
 import numpy as np
 
+from .._rendering import renders_luminance
 from ..core.colour import luminance, luminance_for_limits
-from ..core.planes import resolve_layout_colour, without_alpha
+from ..core.planes import without_alpha
 from ..core.tone_scale import DEFAULT_PERCENTILES, resolve_tone_scale, separated_limits
 from .arrays import checked_lazy, is_lazy
 from .streamed_percentiles import percentiles
@@ -78,8 +79,8 @@ def rendering_tone_limits(image, *, channel_axis=None, alpha=None, colour=None):
     TypeError, ValueError
         As :func:`render_lazy`, before any block is read.
     """
-    image, channel_axis, has_alpha, _ = checked_lazy(image, channel_axis, alpha)
-    in_luminance = resolve_layout_colour(colour, image.shape, channel_axis, alpha) == "luminance"
+    image, channel_axis, has_alpha, layout = checked_lazy(image, channel_axis, alpha)
+    in_luminance = renders_luminance(colour, layout, alpha)
     return streamed_limits(image, channel_axis, has_alpha, in_luminance)
 
 
