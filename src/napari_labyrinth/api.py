@@ -3,47 +3,39 @@
 ``labyrinth`` renders an image, ``labyrinth_stack`` keeps every pass (the
 paper's Fig. 4) and ``labyrinth_sweep`` varies one parameter (Fig. 3). All
 three drive :func:`labyrinth_steps`, a generator of progress events that ends
-with the result; closing it cancels the run. They validate the input, map it
-to the 0-255 tone scale on which the paper's thresholds live, split it into
-independent 2-D planes (``core.planes``) and hand them to the run engine
-(``_engine``), which runs the numba kernel on each.
+with the result; closing it cancels the run. They validate the input
+(``_inputs``), map it to the 0-255 tone scale on which the paper's thresholds
+live, split it into independent 2-D planes (``core.planes``) and hand them,
+grey or in their luminance, to the run engine (``_rendering``, ``_engine``),
+which runs the numba kernel on each. A dask image is rendered lazily
+(``lazy``), block by block, along the same path.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import numbers
-import os
 from collections.abc import Callable, Generator, Iterator, Sequence
 from typing import Any
 
 import numpy as np
 
-from . import _engine
 from ._budget import refuse_unaffordable_result
 from ._engine import DIAGNOSTICS_DTYPE, Progress, run_pass
-from .core.colour import TONES, LuminancePlanes
+from ._inputs import prepare_image, validate_workers
+from ._rendering import render_planes
+from .core.colour import LuminancePlanes
 from .core.parameters import (
     DEFAULT_SEED,
     SEED,
-    WORKERS,
     LabyrinthParameters,
     is_auto,
     without_auto,
 )
-from .core.planes import (
-    PlaneLayout,
-    normalise_channel_axis,
-    resolve_alpha,
-    resolve_layout_colour,
-    validate_plane_offset,
-    validate_shape,
-    validate_stream_range,
-    without_alpha,
-)
+from .core.planes import PlaneLayout, validate_plane_offset, validate_stream_range
 from .core.presets import DEFAULT_PRESET, FIG3_FACTORS, resolve_parameters, resolve_sweep
-from .core.tone_scale import ToneScale, resolve_tone_scale, validate_dtype
+from .core.tone_scale import ToneScale
 from .lazy import is_lazy, render_lazy, rendering_tone_limits
+from .window import window_for
 
 __all__ = [
     "DIAGNOSTICS_DTYPE",
@@ -466,7 +458,7 @@ def labyrinth_steps(
         )
     else:
         runs = [(resolve_parameters(render["preset"], **overrides), SEED.validate(render["seed"]))]
-    workers = _validate_workers(render["workers"])
+    workers = validate_workers(render["workers"])
     plane_offset = validate_plane_offset(render["plane_offset"])
     record_passes = mode == "stack"
     if is_lazy(image):
@@ -487,7 +479,7 @@ def labyrinth_steps(
         limits = render["tone_limits"]
         limits = None if limits is None else tuple(float(v) for v in limits)
         return iter([Result(_stack(lazy) if mode == "sweep" else lazy[0], None, limits)])
-    array, layout, scale, grey = _prepare(
+    array, layout, scale, grey = prepare_image(
         image, render["channel_axis"], render["tone_limits"], render["colour"], render["alpha"]
     )
     validate_stream_range(plane_offset, layout.n_planes)
@@ -522,21 +514,16 @@ def _steps(
     results = []
     limits = (float(scale.low), float(scale.high))
     for run, (parameters, seed) in enumerate(runs):
-        record_passes = mode == "stack"
-        if grey is None:
-            rendering = _engine.render(
-                array,
-                layout,
-                scale,
-                parameters,
-                seed,
-                record_passes=record_passes,
-                workers=workers,
-            )
-        else:
-            rendering = _render_luminance(
-                array, layout, grey, parameters, seed, record_passes=record_passes, workers=workers
-            )
+        rendering = render_planes(
+            array,
+            layout,
+            scale,
+            grey,
+            parameters,
+            seed,
+            record_passes=mode == "stack",
+            workers=workers,
+        )
         while True:
             try:
                 plane, pass_number, partial = next(rendering)
@@ -549,61 +536,6 @@ def _steps(
         yield Result(_stack([image for image, _ in results]), [d for _, d in results], limits)
     else:
         yield Result(*results[0], limits)
-
-
-def _render_luminance(
-    array: np.ndarray,
-    layout: PlaneLayout,
-    grey: LuminancePlanes,
-    parameters: LabyrinthParameters,
-    seed: int,
-    *,
-    record_passes: bool,
-    workers: int,
-) -> Generator[tuple[int, int, np.ndarray], None, tuple[np.ndarray, np.ndarray]]:
-    """:func:`_engine.render` of a colour image in its luminance, with the same protocol.
-
-    The engine renders the luminance tones (one plane per position, the
-    stream of its first channel); the change is put back into the colour of
-    a copy of ``array``: in stack mode after every pass of every plane, so
-    that the array each progress event carries holds it, otherwise at the
-    end. Yields ``(plane, pass_number, result)`` with ``plane`` the flat
-    index of the position's first channel among the image's planes.
-    """
-    channels = layout.leading_shape[-1]
-    positions = layout.leading_shape[:-1]
-    passes = parameters.passes
-    if record_passes:
-        result = np.empty((passes + 1,) + array.shape, dtype=array.dtype)
-        result[...] = array
-    else:
-        result = array.copy()
-    rendering = _engine.render(
-        grey.tones,
-        layout.luminance_layout(),
-        TONES,
-        parameters,
-        seed,
-        record_passes=record_passes,
-        workers=workers,
-    )
-    try:
-        while True:
-            try:
-                position, pass_number, tones = next(rendering)
-            except StopIteration as finished:
-                tones, diagnostics = finished.value
-                break
-            if record_passes:
-                index = np.unravel_index(position, positions)
-                target = layout.to_planes(result[pass_number])
-                grey.put_back(target, tones[pass_number], index)
-            yield position * channels, pass_number, result
-    finally:
-        rendering.close()  # cancelled: the engine's threads stop now
-    if not record_passes and passes:
-        grey.put_back_all(layout.to_planes(result), tones)
-    return result, np.ascontiguousarray(diagnostics[..., 0])
 
 
 def _finish(
@@ -637,23 +569,15 @@ def _check_arguments(mode, render, overrides, seed_given, parameter, values) -> 
     else:
         resolve_parameters(render["preset"], **given)
         SEED.validate(render["seed"])
-    _validate_workers(render["workers"])
+    validate_workers(render["workers"])
     validate_plane_offset(render["plane_offset"])
 
 
 def _auto_threshold(image, render: dict[str, Any], overrides: dict[str, Any]) -> float:
     """The V of ``variance_threshold="auto"``: the best of :func:`find_window`'s window."""
-    from .window import window_for  # window builds on this module
-
     given = without_auto(overrides)
     resolve_parameters(render["preset"], **given)  # bad parameters are named first
     return window_for(image, **render, **given).best
-
-
-def _validate_workers(workers: Any) -> int:
-    if workers is None:
-        return min(os.cpu_count() or 1, WORKERS.high)
-    return WORKERS.validate(workers)
 
 
 def _stack(arrays):
@@ -662,63 +586,6 @@ def _stack(arrays):
 
         return da.stack(arrays)
     return np.stack(arrays)
-
-
-def _prepare(
-    image: Any, channel_axis: Any, tone_limits: Any, colour: Any, alpha: Any = None
-) -> tuple[np.ndarray, PlaneLayout, ToneScale, LuminancePlanes | None]:
-    """The image as an array, its planes, its tone scale (alpha excluded) and, rendered in
-    its luminance, the luminance planes (the scale is then the luminance's)."""
-    array = _validate_image(image)
-    axis = normalise_channel_axis(channel_axis, array.ndim)
-    has_alpha = resolve_alpha(alpha, array.shape, axis)
-    layout = PlaneLayout(array.shape, axis, alpha=has_alpha)
-    if resolve_layout_colour(colour, array.shape, axis, alpha) == "luminance":
-        grey = LuminancePlanes(layout.to_planes(array), tone_limits)
-        return array, layout, grey.scale, grey
-    scale = resolve_tone_scale(without_alpha(array, layout.channel_axis, has_alpha), tone_limits)
-    return array, layout, scale, None
-
-
-def _validate_image(image: Any) -> np.ndarray:
-    """``image`` as an array of a supported dtype, in native byte order (a copy if not).
-
-    Raises
-    ------
-    TypeError, ValueError
-        Naming ``image`` and what was expected.
-    """
-    if isinstance(image, (str, bytes)) or image is None:
-        raise TypeError(f"image must be an array, got {type(image).__name__}")
-    if np.ma.is_masked(image):  # its data would be rendered and its mask lost
-        raise TypeError(
-            "image is a masked array with masked pixels, whose mask the rendering would "
-            "lose: pass image.filled(np.nan) (a float image: NaN pixels are kept as they are "
-            "and never count as neighbours) or image.data"
-        )
-    try:
-        array = np.asarray(image)
-    except (ValueError, TypeError) as exc:  # ragged nested lists, objects numpy refuses
-        raise ValueError(
-            f"image must be a rectangular array of numbers (nested lists of equal "
-            f"lengths); numpy cannot make one of it: {' '.join(str(exc).split())}"
-        ) from None
-    if array.dtype.kind == "O":
-        raise TypeError(
-            "image must be an array of numbers, got an array of Python objects (a ragged "
-            "nested list, or values of mixed types?)"
-        )
-    validate_dtype(native_dtype(array.dtype))
-    validate_shape(array.shape)
-    if not array.dtype.isnative:
-        array = array.astype(native_dtype(array.dtype))
-    return array
-
-
-def native_dtype(dtype: np.dtype) -> np.dtype:
-    """``dtype`` in the machine's byte order (``>u2`` -> ``uint16`` on a little-endian one)."""
-    dtype = np.dtype(dtype)
-    return dtype if dtype.isnative else dtype.newbyteorder("=")
 
 
 def _in_dtype(

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -30,8 +29,8 @@ import numpy as np
 
 from . import metrics
 from ._engine import run_pass
-from .api import _prepare
-from .core.parameters import FLOAT_DECIMALS, PARAMETERS, SEED, WORKERS, as_float
+from ._inputs import prepare_image, validate_workers
+from .core.parameters import FLOAT_DECIMALS, PARAMETERS, SEED, as_float
 from .core.planes import normalise_channel_axis
 from .core.presets import DEFAULT_PRESET, resolve_parameters
 from .lazy import checked_lazy, is_lazy
@@ -248,9 +247,7 @@ def find_window(
     crops = _positive_int("crops", crops, 1)
     crop_size = _positive_int("crop_size", crop_size, 16)
     max_planes = _positive_int("max_planes", max_planes, 1)
-    if workers is None:
-        workers = min(os.cpu_count() or 1, WORKERS.high)
-    workers = WORKERS.validate(workers)
+    workers = validate_workers(workers)
     values = _thresholds(thresholds, base.variance_threshold)
 
     planes, scale = _sampled_planes(image, channel_axis, alpha, colour, tone_limits, max_planes)
@@ -379,7 +376,7 @@ def _sampled_planes(image, channel_axis, alpha, colour, tone_limits, max_planes)
         checked_lazy(image, channel_axis, alpha)  # its shape, before a plane is computed
         image = _sampled_lazy(image, channel_axis, max_planes)
         channel_axis = None if channel_axis is None else -1
-    array, layout, scale, grey = _prepare(image, channel_axis, tone_limits, colour, alpha)
+    array, layout, scale, grey = prepare_image(image, channel_axis, tone_limits, colour, alpha)
     if grey is not None:
         tones = grey.tones.reshape((-1,) + layout.plane_shape)
         return [tones[k] for k in _evenly(len(tones), max_planes)], np.ascontiguousarray
