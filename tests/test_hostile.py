@@ -28,14 +28,14 @@ from napari_labyrinth._budget import (
     refusal,
     render_bytes,
 )
-from napari_labyrinth._leftovers import (
+from napari_labyrinth.core.parameters import PARAMETERS, PLANE_OFFSET, SEED, WORKERS
+from napari_labyrinth.io import read_image, write_array, write_image
+from napari_labyrinth.io._atomic import (
     StaleTemporaryWarning,
     remove_stale_temporaries,
     stale_temporaries,
     temporary_name,
 )
-from napari_labyrinth.core.parameters import PARAMETERS, PLANE_OFFSET, SEED, WORKERS
-from napari_labyrinth.io import read_image, write_array, write_image
 
 da = pytest.importorskip("dask.array")
 

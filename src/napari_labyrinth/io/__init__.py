@@ -41,8 +41,8 @@ from typing import Any
 
 import numpy as np
 
-from ._budget import declared_refusal, pillow_header, refusal
-from ._leftovers import remove_stale_temporaries, temporary_name
+from .._budget import declared_refusal, pillow_header, refusal
+from ._atomic import remove_stale_temporaries, temporary_name
 
 #: Lower-case file suffix -> format name.
 FORMATS = {
@@ -383,12 +383,12 @@ def _write(
     if record is not None and kind == "PNG":
         from PIL.PngImagePlugin import PngInfo
 
-        from .provenance import KEY, to_json
+        from ..provenance import KEY, to_json
 
         options["pnginfo"] = PngInfo()
         options["pnginfo"].add_itxt(KEY, to_json(record))
     elif record is not None and kind == "JPEG":
-        from .provenance import to_json
+        from ..provenance import to_json
 
         options["comment"] = to_json(record).encode()
     iio.imwrite(handle, np.ascontiguousarray(array), plugin="pillow", extension=suffix, **options)
@@ -726,7 +726,7 @@ def write_array(
             progress=progress,
             metadata=metadata,
         )
-    from .lazy import is_lazy
+    from ..lazy import is_lazy
 
     if not is_lazy(array):
         write_image(path, array, overwrite=overwrite, metadata=metadata)
@@ -740,7 +740,7 @@ def write_array(
             metadata=metadata,
         )
     else:
-        from .lazy import computing
+        from ..lazy import computing
 
         _check_writable(path, kind, array, overwrite, metadata)
         with computing():
@@ -807,7 +807,7 @@ def _check_writable(
 def _write_tiff_lazily(path: Path, array, *, overwrite, plane_axes, progress, metadata) -> None:
     import tifffile
 
-    from .lazy import run_blocks
+    from ..lazy import run_blocks
 
     _check_writable(path, "TIFF", array, overwrite)
     array = _native(array)
@@ -872,7 +872,7 @@ _SEEK_LOCK = threading.Lock()
 
 
 def _write_zarr(path: Path, array, *, overwrite, plane_axes, progress, metadata) -> Path:
-    from .lazy import is_lazy, run_blocks
+    from ..lazy import is_lazy, run_blocks
 
     if zarr_root(path) != (path, ""):
         raise ImageFileError(path, "a zarr output is a path ending in .zarr, not inside one")
@@ -1373,7 +1373,7 @@ def read_provenance(path: str | os.PathLike) -> dict:
 
 
 def _record(text: Any, path: Path) -> dict | None:
-    from .provenance import ProvenanceError, check, from_json
+    from ..provenance import ProvenanceError, check, from_json
 
     if text is None:
         return None
@@ -1393,7 +1393,7 @@ def _ambiguous(shape: Sequence[int], channel_axis: int | None, axes: str | None)
 def _tiff_metadata(path: Path) -> ImageMetadata:
     import tifffile
 
-    from .provenance import KEY
+    from ..provenance import KEY
 
     with _tiff_file(path) as tif:
         series = tif.series[0]
@@ -1520,7 +1520,7 @@ def _tiff_resolution(page) -> tuple[float, float, str | None] | None:
 
 
 def _pillow_metadata(path: Path, kind: str) -> ImageMetadata:
-    from .provenance import KEY
+    from ..provenance import KEY
 
     with pillow_header(path) as image:  # past Pillow's size limit: the budget judges size
         stored = image.mode
@@ -1654,7 +1654,7 @@ def _tiff_file(path: Path):
     """
     import tifffile
 
-    from .core.colour import LUMINANCE_CHANNELS
+    from ..core.colour import LUMINANCE_CHANNELS
 
     with _tifffile_errors(path), tifffile.TiffFile(path) as tif:
         if not tif.series:
@@ -1732,7 +1732,7 @@ def _corrupted(messages: list[str]) -> str:
 
 
 def _zarr_metadata(path: Path) -> ImageMetadata:
-    from .provenance import KEY
+    from ..provenance import KEY
 
     array = _open_zarr_array(path)
     root, component = zarr_root(path)
@@ -1851,7 +1851,7 @@ def _tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | No
     sizes if known (an OME or ImageJ input whose axes or dtype the format
     cannot hold keeps them there, and its resolution in the TIFF tags).
     """
-    from .provenance import KEY, to_json
+    from ..provenance import KEY, to_json
 
     dtype = np.dtype(dtype)
     if metadata is None:
@@ -1918,7 +1918,7 @@ def _imagej_options(
     """
     import tifffile
 
-    from .provenance import KEY, to_json
+    from ..provenance import KEY, to_json
 
     axes = metadata.axes
     if not axes or len(axes) != len(shape):
@@ -2032,7 +2032,7 @@ def _zarr_attributes(shape: Sequence[int], metadata: ImageMetadata | None) -> tu
     or 3 spatial ones); otherwise a plain array with the record (and the
     axes, if known) in its attributes.
     """
-    from .provenance import KEY
+    from ..provenance import KEY
 
     attributes: dict[str, Any] = {}
     if metadata is None:
