@@ -25,6 +25,8 @@ from napari_labyrinth import labyrinth, labyrinth_stack, labyrinth_sweep
 from napari_labyrinth import lazy as lazy_images
 from napari_labyrinth.cli import main
 from napari_labyrinth.io import open_image, read_image, write_image
+from napari_labyrinth.io import tiff as tiff_files
+from napari_labyrinth.io import zarr as zarr_stores
 
 SHAPE = (6, 64, 64)
 OPTIONS = ["--passes", "2", "--seed", "7"]
@@ -172,13 +174,13 @@ def test_lazy_tiff_output_is_written_plane_by_plane(tmp_path, monkeypatch):
     image = textured()
     store(tmp_path / "in.zarr", image)
     sizes = []
-    real = file_io._write_contiguous
+    real = tiff_files._write_contiguous
 
     def spy(fd, offset, shape, itemsize, block, location):
         sizes.append(block.shape)
         real(fd, offset, shape, itemsize, block, location)
 
-    monkeypatch.setattr(file_io, "_write_contiguous", spy)
+    monkeypatch.setattr(tiff_files, "_write_contiguous", spy)
     assert render(tmp_path / "in.zarr", "-o", tmp_path / "out.tif", *OPTIONS) == 0
     assert sizes == [(1, 64, 64)] * 6
     np.testing.assert_array_equal(
@@ -325,9 +327,9 @@ def test_failure_while_writing_leaves_nothing_and_keeps_the_old_store(
         calls.append(location)
         if len(calls) == 3:
             raise OSError(28, "No space left on device")
-        file_io._cached_zarr_for_writing(path)[tuple(slice(*r) for r in location)] = block
+        zarr_stores._cached_zarr_for_writing(path)[tuple(slice(*r) for r in location)] = block
 
-    monkeypatch.setattr(file_io, "_write_zarr_block", broken)
+    monkeypatch.setattr(zarr_stores, "_write_zarr_block", broken)
     argv = [tmp_path / "in.zarr", "-o", old, "--overwrite", *OPTIONS]
     assert render(*argv) == 1
     (line,) = error_lines(capsys.readouterr().err)

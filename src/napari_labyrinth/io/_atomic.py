@@ -1,10 +1,16 @@
-"""Hidden temporaries of writes that never finished: named after their writer, cleared later.
+"""Atomic writes: a hidden temporary beside the destination takes its name in one step.
 
-Every write goes to a hidden temporary beside its destination (a file, or a
-directory for a zarr store) that takes the destination's name at the end, and
-is removed on any error or Ctrl-C. Only a process killed outright (SIGKILL,
-a power cut) leaves one behind. Each temporary is therefore named after the
-process that writes it::
+A reader never sees a half-written file and an error leaves nothing behind:
+:func:`create_temporary` (a file) and :func:`create_temporary_directory` (a
+zarr store) make the temporary, :func:`published` and
+:func:`publish_directory` give it the destination's name without clobbering
+anything that appeared meanwhile (unless overwriting). On a failure or
+Ctrl-C the temporary is removed (by :func:`published`; by the zarr writer for
+a directory): each is recorded in ``made`` before it exists.
+
+Only a process killed outright (SIGKILL, a power cut) leaves a temporary
+behind. Each temporary is therefore named after the process that writes
+it::
 
     .NAME.<host>-<pid>-<random>.tmp        (.old: a zarr store being replaced)
 
@@ -16,6 +22,9 @@ removed.
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import errno
 import functools
 import hashlib
 import os
@@ -36,6 +45,141 @@ _UNOWNED = re.compile(r"\.[0-9a-f]{8}(\.tmp|\.old)$")
 
 class StaleTemporaryWarning(UserWarning):
     """A hidden temporary of an interrupted write that could not be attributed."""
+
+
+@contextlib.contextmanager
+def published(made: list[Path], path: Path, *, overwrite: bool):
+    """Move the temporary file the block makes (:func:`create_temporary`, into ``made``) to
+    ``path`` once the block has written it; remove it on failure.
+
+    The temporary is made inside the block, so that an interruption at any
+    moment after it exists (Ctrl-C, SIGTERM) removes it. ``os.replace``
+    with ``overwrite``; otherwise a hard link that refuses to clobber a file
+    created in the meantime.
+    """
+    try:
+        yield
+        if overwrite:
+            os.replace(made[-1], path)
+        else:
+            _link_no_clobber(made[-1], path)
+    except BaseException:
+        for temporary in made:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(temporary)
+        raise
+
+
+def create_temporary(directory: Path, name: str, made: list[Path]):
+    """A new hidden file beside the destination, opened for binary writing.
+
+    Its path is put in ``made`` before it is created: an interruption handled
+    as the file is made (Python runs signal handlers as a call returns)
+    leaves the caller a path to remove.
+    """
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+    remove_stale_temporaries(directory, name)
+    while True:
+        temporary = directory / temporary_name(name)
+        made.append(temporary)
+        try:
+            fd = os.open(temporary, flags, 0o666)  # the umask applies, unlike mkstemp
+        except FileExistsError:
+            made.pop()  # not made here
+            continue
+        os.close(fd)
+        # Opened again by name: writers such as tifffile want a named file.
+        return temporary, open(temporary, "wb")
+
+
+def create_temporary_directory(directory: Path, name: str, made: list[Path]) -> Path:
+    """A new hidden directory beside the destination, its path put in ``made`` before it is
+    created (see :func:`create_temporary`)."""
+    remove_stale_temporaries(directory, name)
+    while True:
+        temporary = directory / temporary_name(name)
+        made.append(temporary)
+        try:
+            os.mkdir(temporary)
+        except FileExistsError:
+            made.pop()  # not made here
+            continue
+        return temporary
+
+
+def publish_directory(temporary: Path, path: Path, *, overwrite: bool) -> None:
+    """Give the directory ``temporary`` the name ``path``, replacing it only with ``overwrite``."""
+    if not overwrite or not os.path.lexists(path):
+        _rename_no_replace(temporary, path)
+        return
+    old = path.parent / temporary_name(path.name, ".old")
+    os.rename(path, old)
+    try:
+        os.rename(temporary, path)
+    except BaseException:
+        os.rename(old, path)
+        raise
+    if old.is_dir() and not old.is_symlink():
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.unlink(old)
+
+
+def _link_no_clobber(temporary: Path, path: Path) -> None:
+    """Give ``temporary`` the name ``path`` unless ``path`` exists; remove ``temporary``."""
+    try:
+        os.link(temporary, path)
+    except FileExistsError:
+        raise FileExistsError(f"{path} already exists (use overwrite to replace it)") from None
+    except OSError:
+        # No hard links on this file system: check, then rename (a small window).
+        if os.path.lexists(path):
+            raise FileExistsError(f"{path} already exists (use overwrite to replace it)") from None
+        os.replace(temporary, path)
+        return
+    os.unlink(temporary)
+
+
+def _rename_no_replace(source: Path, destination: Path) -> None:
+    """Rename ``source`` to ``destination`` unless that exists (atomically where supported)."""
+    exists = FileExistsError(f"{destination} already exists (use overwrite to replace it)")
+    renameat2 = _renameat2()
+    if renameat2 is not None:
+        at_fdcwd, noreplace = -100, 1
+        names = os.fsencode(source), os.fsencode(destination)
+        if renameat2(at_fdcwd, names[0], at_fdcwd, names[1], noreplace) == 0:
+            return
+        code = ctypes.get_errno()
+        if code == errno.EEXIST:
+            raise exists
+        if code not in (errno.EINVAL, errno.ENOSYS, getattr(errno, "ENOTSUP", errno.EINVAL)):
+            raise OSError(code, os.strerror(code), str(destination))
+    if os.path.lexists(destination):  # no renameat2 here: check, then rename (a small window)
+        raise exists
+    try:
+        os.rename(source, destination)
+    except OSError as exc:
+        if exc.errno in (errno.EEXIST, errno.ENOTEMPTY):
+            raise exists from None
+        raise
+
+
+@functools.lru_cache(maxsize=1)
+def _renameat2():
+    """libc's ``renameat2`` (Linux), or None."""
+    try:
+        function = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError, TypeError):
+        return None
+    function.argtypes = [
+        ctypes.c_int,
+        ctypes.c_char_p,
+        ctypes.c_int,
+        ctypes.c_char_p,
+        ctypes.c_uint,
+    ]
+    function.restype = ctypes.c_int
+    return function
 
 
 def temporary_name(name: str, suffix: str = ".tmp") -> str:
@@ -122,4 +266,3 @@ def _running(pid: int) -> bool:
 def _host() -> str:
     """Six hex digits naming this machine (temporaries of other hosts are never removed)."""
     return hashlib.sha1(socket.gethostname().encode()).hexdigest()[:6]
-

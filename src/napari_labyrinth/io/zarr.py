@@ -1,0 +1,358 @@
+"""zarr stores: arrays, OME-Zarr images and groups, read whole or lazily, written block by block.
+
+A ``.zarr`` directory holding an array, an OME-Zarr image (its
+full-resolution level) or a group of one array is read through zarr, lazily
+as a dask array of whole planes (:func:`open_zarr_lazily`). An output is
+written into a hidden directory beside its destination, by the tasks that
+compute its blocks, then renamed into place (:func:`write_zarr`); its axes,
+pixel sizes, channel names and provenance record are its attributes, as an
+OME-Zarr image where OME-Zarr can hold the axes. zarr and dask are optional
+(``napari-labyrinth[dask]``) and imported where they are used.
+"""
+
+from __future__ import annotations
+
+import errno
+import functools
+import os
+import shutil
+import threading
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._budget import refusal
+from ..lazy import is_lazy, run_blocks
+from ..provenance import KEY
+from ._arrays import block_chunks, native, plane_count
+from ._atomic import create_temporary_directory, publish_directory
+from ._errors import ImageFileError, reason_of, refuse_unaffordable_file
+from ._formats import check_storable, is_zarr_store, zarr_root
+from .metadata import (
+    SPATIAL_AXES,
+    ImageMetadata,
+    complete_names,
+    is_ambiguous,
+    named_channels,
+    read_record,
+    time_pair,
+)
+
+#: OME-Zarr axis type of each axis letter (letters not here get no type).
+_OME_ZARR_TYPES = {"T": "time", "C": "channel", "Z": "space", "Y": "space", "X": "space"}
+
+
+def read_zarr(path: Path) -> np.ndarray:
+    """The array of a zarr store read whole, refused before reading if it needs more memory
+    than the run may use."""
+    array = _open_zarr_array(path)
+    refuse_unaffordable_file(path, refusal(array.shape, array.dtype))
+    return native(np.asarray(array[...]))
+
+
+def open_zarr_lazily(path: Path, channel_axis: int | None):
+    """The array of a zarr store as a dask array of whole planes, read block by block when
+    computed."""
+    array = _open_zarr_array(path)
+    import dask.array as da
+
+    chunks = block_chunks(array.shape, array.chunks, array.dtype, channel_axis)
+    return native(da.from_zarr(array, chunks=chunks))
+
+
+def forget_stores_written() -> None:
+    """Forget the zarr stores opened in this process to write blocks into."""
+    _cached_zarr_for_writing.cache_clear()
+
+
+def zarr_metadata(path: Path) -> ImageMetadata:
+    """What a zarr store says about its pixels (see ``read_metadata``)."""
+    array = _open_zarr_array(path)
+    root, component = zarr_root(path)
+    import zarr
+
+    node = zarr.open(store=os.path.abspath(root), mode="r", path=component or None)
+    attributes = dict(node.attrs)
+    record = attributes.get(KEY, dict(array.attrs).get(KEY))
+    multiscales = attributes.get("multiscales") or attributes.get("ome", {}).get("multiscales")
+    axes, sizes, ome, channel_names, time_increment = None, {}, False, (), None
+    if isinstance(node, zarr.Group) and multiscales:
+        ome = True
+        omero = attributes.get("omero") or attributes.get("ome", {}).get("omero") or {}
+        channels = omero.get("channels") if isinstance(omero, dict) else None
+        channel_names = complete_names(
+            channel.get("label") if isinstance(channel, dict) else None
+            for channel in (channels if isinstance(channels, list) else ())
+        )
+        scale = multiscales[0]
+        names = [a["name"] if isinstance(a, dict) else a for a in scale.get("axes", ())]
+        units = [a.get("unit") if isinstance(a, dict) else None for a in scale.get("axes", ())]
+        if len(names) == array.ndim:
+            axes = "".join(name[0].upper() if len(name) == 1 else "Q" for name in names)
+            factors = _zarr_scale(scale["datasets"][0])
+            whole = _zarr_scale(scale)  # the multiscale's own transform, after the dataset's
+            if factors is not None and whole is not None and len(whole) == len(factors):
+                factors = [a * b for a, b in zip(factors, whole)]
+            for letter, unit, factor in zip(axes, units, factors or (), strict=False):
+                if letter in SPATIAL_AXES:
+                    sizes[letter] = (float(factor), unit)
+                elif letter == "T" and (factor != 1 or unit is not None):
+                    time_increment = (float(factor), unit)
+        else:
+            ome = False
+    elif isinstance(attributes.get("axes"), str) and len(attributes["axes"]) == array.ndim:
+        axes = attributes["axes"]  # written by _zarr_attributes where OME-Zarr does not fit
+        sizes = {k: (float(v[0]), v[1]) for k, v in attributes.get("pixel_sizes", {}).items()}
+        names = attributes.get("channel_names")
+        channel_names = complete_names(names if isinstance(names, list) else ())
+        time_increment = time_pair(attributes.get("time_increment"))
+    return ImageMetadata(
+        axes=axes,
+        pixel_sizes=sizes,
+        ome=ome,
+        provenance=read_record(record, path),
+        ambiguous=is_ambiguous(array.shape, None, axes),
+        channel_names=channel_names,
+        time_increment=time_increment,
+    )
+
+
+def write_zarr(path: Path, array, *, overwrite, plane_axes, progress, metadata) -> Path:
+    """Write an array to a zarr store, atomically, a dask array block by block (see
+    ``write_array``)."""
+    if zarr_root(path) != (path, ""):
+        raise ImageFileError(path, "a zarr output is a path ending in .zarr, not inside one")
+    check_storable(path, "ZARR", array)
+    if os.path.lexists(path):
+        if not overwrite:
+            raise FileExistsError(f"{path} already exists (use overwrite to replace it)")
+        if not is_zarr_store(path):
+            raise ImageFileError(path, "exists and is not a zarr store; not replacing it")
+    try:
+        import zarr
+    except ImportError:
+        raise ImageFileError(
+            path, "writing zarr needs zarr and dask: pip install 'napari-labyrinth[dask]'"
+        ) from None
+    axes = {axis % array.ndim for axis in plane_axes}
+    chunks = tuple(size if axis in axes else 1 for axis, size in enumerate(array.shape))
+    array = native(array)
+    made: list[Path] = []
+    try:
+        temporary = create_temporary_directory(path.parent, path.name, made)
+        lazy = is_lazy(array)
+        store = _waited_for(
+            _create_zarr_array,
+            zarr,
+            os.path.abspath(temporary),
+            array,
+            chunks,
+            metadata,
+            None if lazy else np.asarray(array),
+        )
+        if lazy:
+            array = array.rechunk({axis: -1 for axis in axes})  # no-op for rendered arrays
+            write = functools.partial(_write_zarr_block, store)
+            run_blocks(array, write, plane_axes=tuple(axes), progress=progress)
+        elif progress is not None:
+            total = plane_count(array.shape, plane_axes)
+            progress(total, total)
+        publish_directory(temporary, path, overwrite=overwrite)
+    except BaseException:
+        for temporary in made:
+            shutil.rmtree(temporary, ignore_errors=True)
+        raise
+    finally:
+        _cached_zarr_for_writing.cache_clear()
+    return path
+
+
+def ome_zarr_ok(axes: str) -> bool:
+    """Whether the axes follow OME-Zarr: 2-5 of them, [time] [channel/other] 2-3 space."""
+    space = axes.lstrip("TCQ")
+    head = axes[: len(axes) - len(space)]
+    return (
+        2 <= len(axes) <= 5
+        and 2 <= len(space) <= 3
+        and set(space) <= set(SPATIAL_AXES)
+        and head in ("", "T", "C", "Q", "TC", "TQ")
+    )
+
+
+def _zarr_attributes(shape: Sequence[int], metadata: ImageMetadata | None) -> tuple[dict, str]:
+    """The attributes of a zarr output and the array's path in it ("" for a plain array).
+
+    An OME-Zarr image (version 0.5: a group with ``ome.multiscales`` and its
+    array at ``0``) when the metadata come from OME and the axes fit the
+    specification (2 to 5 axes: time, then channel or another kind, then 2
+    or 3 spatial ones); otherwise a plain array with the record (and the
+    axes, if known) in its attributes.
+    """
+    attributes: dict[str, Any] = {}
+    if metadata is None:
+        return attributes, ""
+    if metadata.provenance is not None:
+        attributes[KEY] = metadata.provenance
+    axes, ndim = metadata.axes, len(shape)
+    if not (metadata.ome and axes and len(axes) == ndim and ome_zarr_ok(axes)):
+        if axes and len(axes) == ndim:  # read back by zarr_metadata
+            attributes["axes"] = axes
+            attributes["pixel_sizes"] = {k: list(v) for k, v in metadata.pixel_sizes.items()}
+            if names := named_channels(metadata, shape):
+                attributes["channel_names"] = list(names)
+            if metadata.time_increment is not None and "T" in axes:
+                attributes["time_increment"] = list(metadata.time_increment)
+        return attributes, ""
+    entries, scale = [], []
+    for letter in axes:
+        entry: dict[str, Any] = {"name": letter.lower() if letter in "TCZYX" else "q"}
+        if letter in _OME_ZARR_TYPES:
+            entry["type"] = _OME_ZARR_TYPES[letter]
+        size, unit = metadata.pixel_sizes.get(letter, (1.0, None))
+        if letter == "T" and metadata.time_increment is not None:
+            size, unit = metadata.time_increment
+        if unit is not None:
+            entry["unit"] = unit
+        entries.append(entry)
+        scale.append(float(size))
+    attributes["ome"] = {
+        "version": "0.5",
+        "multiscales": [
+            {
+                "axes": entries,
+                "datasets": [
+                    {"path": "0", "coordinateTransformations": [{"type": "scale", "scale": scale}]}
+                ],
+            }
+        ],
+    }
+    if names := named_channels(metadata, shape):
+        attributes["ome"]["omero"] = {"channels": [{"label": name} for name in names]}
+    return attributes, "0"
+
+
+def _open_zarr_array(path: Path):
+    """The zarr array at ``path``: a store, an OME-Zarr image, a group of one array."""
+    root, component = zarr_root(path)
+    if not root.exists():
+        raise FileNotFoundError(errno.ENOENT, "no such file or directory", str(root))
+    try:
+        import zarr
+    except ImportError:
+        raise ImageFileError(
+            path, "reading zarr needs zarr and dask: pip install 'napari-labyrinth[dask]'"
+        ) from None
+    try:
+        node = zarr.open(store=os.path.abspath(root), mode="r", path=component or None)
+    except Exception as exc:  # zarr raises many types for what is not a store
+        raise ImageFileError(path, f"cannot read zarr store: {reason_of(exc)}") from exc
+    if isinstance(node, zarr.Group):
+        node = _array_of_group(path, node)
+    if node.size == 0:
+        raise ImageFileError(path, f"the store holds no pixels (shape {node.shape})")
+    return node
+
+
+def _array_of_group(path: Path, group):
+    attributes = dict(group.attrs)
+    multiscales = attributes.get("multiscales") or attributes.get("ome", {}).get("multiscales")
+    if multiscales:
+        try:
+            return group[multiscales[0]["datasets"][0]["path"]]
+        except (KeyError, IndexError, TypeError) as exc:
+            raise ImageFileError(path, f"bad OME-Zarr multiscales metadata: {exc}") from None
+    arrays = sorted(group.array_keys())
+    if len(arrays) == 1:
+        return group[arrays[0]]
+    if not arrays:
+        groups = sorted(group.group_keys())
+        if groups:  # a bioformats2raw layout: its images are groups 0, 1, ...
+            shown = ", ".join(groups[:5]) + (", ..." if len(groups) > 5 else "")
+            raise ImageFileError(
+                path,
+                f"is a zarr group of groups ({shown}), no array; name one: {path / groups[0]}",
+            )
+        raise ImageFileError(path, "is a zarr group without arrays")
+    shown = ", ".join(arrays[:5]) + (", ..." if len(arrays) > 5 else "")
+    raise ImageFileError(
+        path, f"is a zarr group of {len(arrays)} arrays ({shown}); name one: {path / arrays[0]}"
+    )
+
+
+def _zarr_scale(node: dict) -> list[float] | None:
+    """The scale of an OME-Zarr dataset's (or multiscale's) coordinate transformations."""
+    for transform in node.get("coordinateTransformations", ()) or ():
+        if isinstance(transform, dict) and transform.get("type") == "scale":
+            return transform.get("scale")
+    return None
+
+
+def _create_zarr_array(zarr, directory: str, array, chunks, metadata, values) -> str:
+    """Create the zarr array ``array`` will be written to in ``directory``, and its path.
+
+    With its attributes (an OME-Zarr image is a group holding the array), and
+    filled with ``values`` unless they are None.
+    """
+    store = directory
+    attributes, component = _zarr_attributes(array.shape, metadata)
+    if component:
+        group = zarr.open_group(store=store, mode="w")
+        group.attrs.update(attributes)
+        store = os.path.join(store, component)
+    target = zarr.create_array(
+        store=store, shape=array.shape, chunks=chunks, dtype=array.dtype, fill_value=0
+    )
+    if not component:
+        target.attrs.update(attributes)
+    if values is not None:
+        target[...] = values
+    return store
+
+
+def _waited_for(function, *args):
+    """``function(*args)`` run in a thread of its own, and waited for even through Ctrl-C.
+
+    zarr does its I/O on an event loop of its own, which a KeyboardInterrupt
+    in the waiting thread does not stop: a store removed after Ctrl-C was
+    written into again, and left behind, by the writes still under way. The
+    interruption (the first, if several) is raised once the function ends.
+    """
+    outcome = {}
+    ended = threading.Event()  # not Thread.join: interrupted, it can take the thread as ended
+
+    def run():
+        try:
+            outcome["value"] = function(*args)
+        except BaseException as error:  # noqa: BLE001 - raised again in the caller's thread
+            outcome["error"] = error
+        finally:
+            ended.set()
+
+    threading.Thread(target=run, name="napari-labyrinth-zarr-write", daemon=True).start()
+    interruption = None
+    while not ended.is_set():
+        try:
+            ended.wait()
+        except BaseException as error:  # noqa: BLE001 - raised once the write has ended
+            interruption = interruption or error
+    if interruption is not None:
+        raise interruption
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["value"]
+
+
+def _write_zarr_block(store: str, block, location) -> None:
+    if not os.path.isfile(os.path.join(store, "zarr.json")):  # abandoned after a failure
+        raise FileNotFoundError(errno.ENOENT, "the output being written was removed", store)
+    target = _cached_zarr_for_writing(store)
+    target[tuple(slice(start, stop) for start, stop in location)] = block
+
+
+@functools.lru_cache(maxsize=8)
+def _cached_zarr_for_writing(path: str):
+    import zarr
+
+    return zarr.open_array(store=path, mode="r+")
