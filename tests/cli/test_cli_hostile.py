@@ -450,18 +450,20 @@ def test_an_interrupt_a_finaliser_swallowed_still_stops_the_write(
 ):
     import zarr
 
-    from napari_labyrinth import lazy
+    from napari_labyrinth.io import tiff as tiff_files
+    from napari_labyrinth.io import zarr as zarr_stores
 
     stack = tmp_path / "stack.zarr"
     zarr.create_array(store=str(stack), shape=(6, 32, 32), chunks=(1, 32, 32), dtype="u1")
     output = tmp_path / f"out{suffix}"
-    run_blocks = lazy.run_blocks
+    writer = tiff_files if suffix == ".tif" else zarr_stores  # where the output's blocks run
+    run_blocks = writer.run_blocks
 
     def interrupted_once_started(*args, **kwargs):
         _InterruptedFinaliser()  # collected at once, in the main thread
         return run_blocks(*args, **kwargs)
 
-    monkeypatch.setattr(lazy, "run_blocks", interrupted_once_started)
+    monkeypatch.setattr(writer, "run_blocks", interrupted_once_started)
     lost = []  # what Python reports as "Exception ignored in ..."
     monkeypatch.setattr(sys, "unraisablehook", lambda report: lost.append(report.exc_type))
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

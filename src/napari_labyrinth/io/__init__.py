@@ -104,6 +104,7 @@ __all__ = [
     "ImageFileError",
 ]
 
+#: ``progress(planes_done, planes_total)``, called as the planes are written.
 ProgressCallback = Callable[[int, int], Any]
 
 
