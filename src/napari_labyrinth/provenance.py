@@ -1,7 +1,7 @@
 """The provenance record: how a rendering was made, enough to make it again.
 
 One schema for every front end. The napari widget puts the record in the
-result layer's ``metadata`` (:mod:`napari_labyrinth.plan`); the command line
+result layer's ``metadata`` (:mod:`napari_labyrinth.widget.plan`); the command line
 writes it into the output file (:mod:`napari_labyrinth.io`: a TIFF's
 description, an OME-TIFF's annotation, a PNG text chunk, zarr attributes) and
 ``napari-labyrinth reproduce`` renders again from it.

@@ -10,7 +10,7 @@ from napari.layers import Image
 from napari.viewer import Viewer
 
 from ..core.colour import COLOUR_MODES
-from ..plan import (
+from ..widget.plan import (
     ALL_PLANES,
     CURRENT_PLANE,
     LayerSnapshot,

@@ -5,7 +5,7 @@ from __future__ import annotations
 from napari.layers import Image
 from napari.viewer import Viewer
 
-from ..plan import METADATA_KEY, sweep_label
+from ..widget.plan import METADATA_KEY, sweep_label
 
 
 class SweepLabel:

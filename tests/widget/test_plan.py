@@ -13,7 +13,7 @@ import pytest
 import napari_labyrinth
 from napari_labyrinth import api, metrics, provenance
 from napari_labyrinth.core import presets
-from napari_labyrinth.plan import (
+from napari_labyrinth.widget.plan import (
     CURRENT_PLANE,
     METADATA_KEY,
     METRIC_ROWS,

@@ -13,7 +13,7 @@ import pytest
 
 from napari_labyrinth import api, metrics
 from napari_labyrinth.core.tone_scale import resolve_tone_scale
-from napari_labyrinth.plan import (
+from napari_labyrinth.widget.plan import (
     CURRENT_PLANE,
     METADATA_KEY,
     METRIC_ROWS,
@@ -21,7 +21,7 @@ from napari_labyrinth.plan import (
     LayerSnapshot,
     make_plan,
 )
-from napari_labyrinth.run import (
+from napari_labyrinth.widget.run import (
     Failure,
     Outcome,
     diagnostics_record,
@@ -40,8 +40,8 @@ data = pytest.importorskip("skimage.data")
 def test_plan_and_a_run_import_neither_napari_nor_qt():
     code = (
         "import sys, numpy as np;"
-        "from napari_labyrinth.plan import LayerSnapshot, Choices, make_plan;"
-        "from napari_labyrinth.run import render;"
+        "from napari_labyrinth.widget.plan import LayerSnapshot, Choices, make_plan;"
+        "from napari_labyrinth.widget.run import render;"
         "plan = make_plan(LayerSnapshot.of(np.zeros((8, 8), np.uint8)), Choices());"
         "list(render(plan));"
         "print(sorted(m for m in ('napari', 'qtpy', 'PyQt6', 'PyQt5', 'PySide6', 'magicgui',"

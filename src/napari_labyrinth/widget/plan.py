@@ -9,7 +9,7 @@ progress total, and the result layer's name, transforms, contrast settings
 and metadata record, from which the API call it names
 (:func:`~napari_labyrinth.labyrinth`, :func:`~napari_labyrinth.labyrinth_stack`
 or :func:`~napari_labyrinth.labyrinth_sweep`) reproduces the result exactly.
-:mod:`napari_labyrinth.run` carries a plan out.
+:mod:`napari_labyrinth.widget.run` carries a plan out.
 
 The fields of the widget's form and the sweep's values are read with the
 parameter table (:mod:`napari_labyrinth.core.parameters`).
@@ -25,15 +25,15 @@ from typing import Any
 
 import numpy as np
 
-from . import metrics
-from .api import MODES
-from .core.colour import resolve_colour
-from .core.parameters import PARAMETERS, SWEEPABLE, format_value
-from .core.planes import first_plane_index, step_count
-from .core.presets import DEFAULT_PRESET, PRESETS, resolve_parameters, resolve_sweep
-from .core.tone_scale import validate_tone_limits
-from .lazy import is_in_memory
-from .provenance import FUNCTIONS, KEY, input_record, make_record, sweep_arguments
+from .. import metrics
+from ..api import MODES
+from ..core.colour import resolve_colour
+from ..core.parameters import PARAMETERS, SWEEPABLE, format_value
+from ..core.planes import first_plane_index, step_count
+from ..core.presets import DEFAULT_PRESET, PRESETS, resolve_parameters, resolve_sweep
+from ..core.tone_scale import validate_tone_limits
+from ..lazy import is_in_memory
+from ..provenance import FUNCTIONS, KEY, input_record, make_record, sweep_arguments
 
 __all__ = [
     "ALL_PLANES",

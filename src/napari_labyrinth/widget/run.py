@@ -26,9 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from . import api, metrics
-from .core.colour import luminance, resolve_colour
-from .core.planes import PlaneLayout, first_plane_index
+from .. import api, metrics
+from ..core.colour import luminance, resolve_colour
+from ..core.planes import PlaneLayout, first_plane_index
 from .plan import METADATA_KEY, METRIC_ROWS, RenderPlan
 
 __all__ = ["Cancelled", "Failure", "Outcome", "render", "result_layer", "splice_plane"]
