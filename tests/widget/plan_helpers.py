@@ -7,7 +7,7 @@ import json
 import numpy as np
 
 import napari_labyrinth
-from napari_labyrinth.widget.plan import METADATA_KEY
+from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
 from napari_labyrinth.widget.run import render
 
 

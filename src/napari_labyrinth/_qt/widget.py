@@ -34,15 +34,10 @@ from superqt import QCollapsible
 from .._warmup import DEFAULT_DTYPE
 from ..core._jit import compiling, watch_compiles
 from ..core.presets import DEFAULT_PRESET
-from ..widget.plan import (
-    MODES,
-    SWEEP_PARAMETERS,
-    Choices,
-    RenderPlan,
-    default_sweep_text,
-    make_plan,
-)
+from ..widget.choices import Choices
+from ..widget.plan import MODES, RenderPlan, make_plan
 from ..widget.run import Failure, Outcome
+from ..widget.text import SWEEP_PARAMETERS, default_sweep_text
 from .auto_window import AutoWindow
 from .collector import hold_full_collections
 from .compare import CompareView
