@@ -11,7 +11,9 @@ import pytest
 import napari_labyrinth
 from napari_labyrinth import api, provenance
 from napari_labyrinth.core.presets import resolve_parameters
-from napari_labyrinth.plan import METADATA_KEY, Choices, LayerSnapshot, make_plan
+from napari_labyrinth.widget.choices import Choices, LayerSnapshot
+from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
+from napari_labyrinth.widget.plan import make_plan
 
 
 def test_file_checksum_is_sha256_of_the_bytes(tmp_path):

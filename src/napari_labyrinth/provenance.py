@@ -1,10 +1,13 @@
 """The provenance record: how a rendering was made, enough to make it again.
 
-One schema for every front end. The napari widget puts the record in the
-result layer's ``metadata`` (:mod:`napari_labyrinth.plan`); the command line
-writes it into the output file (:mod:`napari_labyrinth.io`: a TIFF's
-description, an OME-TIFF's annotation, a PNG text chunk, zarr attributes) and
-``napari-labyrinth reproduce`` renders again from it.
+One schema for every front end, built by one function,
+:func:`rendering_record`, from the keyword arguments a front end gives the
+API. The napari widget puts the record in the result layer's ``metadata``
+(:mod:`napari_labyrinth.widget.plan`); the command line
+(:mod:`napari_labyrinth.cli.render`) writes it into the output file
+(:mod:`napari_labyrinth.io`: a TIFF's description, an OME-TIFF's annotation,
+a PNG text chunk, zarr attributes) and ``napari-labyrinth reproduce`` renders
+again from it.
 
 A record is a JSON-ready dict:
 
@@ -42,6 +45,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from . import __version__
+from .core.colour import resolve_colour
+from .core.parameters import PARAMETERS
+from .core.presets import DEFAULT_PRESET, resolve_parameters
+
 __all__ = [
     "FUNCTIONS",
     "KEY",
@@ -53,6 +63,7 @@ __all__ = [
     "from_json",
     "input_record",
     "make_record",
+    "rendering_record",
     "reproduce_call",
     "sweep_arguments",
     "to_json",
@@ -74,6 +85,83 @@ _CHUNK = 1 << 20
 
 class ProvenanceError(ValueError):
     """A record that is missing, of another schema, or incomplete."""
+
+
+def rendering_record(
+    mode: str,
+    arguments: Mapping[str, Any],
+    *,
+    source: Mapping[str, Any],
+    tone_limits: Sequence[float] | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    seed: int | None = None,
+) -> dict[str, Any]:
+    """The record of ``labyrinth_steps(image, mode, **arguments)`` on ``source``: what the
+    command line writes into a file and the widget into a layer's metadata.
+
+    The record's arguments name what ``arguments`` leave to defaults: every
+    parameter (resolved from the preset and the overrides), the seed, the
+    tone limits used and the colour mode the default chose.
+
+    Parameters
+    ----------
+    mode : {"single", "stack", "sweep"}
+    arguments : mapping
+        The keyword arguments of the rendering (those given, or every one):
+        ``preset``, parameters, ``seed``, ``tone_limits``, ``channel_axis``,
+        ``colour``, ``alpha``, ``plane_offset``, and for a sweep
+        ``parameter`` and ``values``.
+    source : mapping
+        The ``input`` entry (see :func:`input_record`).
+    tone_limits : pair of float, optional
+        The values the rendering mapped to tones 0 and 255
+        (``Result.tone_limits``); by default those of ``arguments``.
+    overrides : mapping, optional
+        The parameters set over the preset; by default the parameters that
+        ``arguments`` name (pass them when ``arguments`` name every parameter).
+    seed : int, optional
+        The seed to record; by default that of ``arguments`` (0 if none; a
+        sweep of the seed takes it out of ``arguments``).
+
+    Returns
+    -------
+    dict
+        The record (see the module's docstring), JSON-ready.
+    """
+    preset = arguments.get("preset", DEFAULT_PRESET)
+    if overrides is None:
+        overrides = {name: value for name, value in arguments.items() if name in PARAMETERS}
+    parameters = resolve_parameters(preset, **overrides).as_dict()
+    if seed is None:
+        seed = arguments.get("seed", 0)
+    sweep = (arguments["parameter"], arguments["values"]) if mode == "sweep" else None
+    if tone_limits is None:
+        tone_limits = arguments.get("tone_limits")
+    channel_axis, colour = arguments.get("channel_axis"), arguments.get("colour")
+    if channel_axis is not None:  # the colour mode the default chose, written down
+        colour = resolve_colour(colour, source["shape"], channel_axis)
+    call = call_arguments(
+        preset=preset,
+        parameters=parameters,
+        seed=seed,
+        tone_limits=tone_limits,
+        channel_axis=channel_axis,
+        colour=colour,
+        alpha=arguments.get("alpha"),
+        sweep=sweep,
+        plane_offset=arguments.get("plane_offset"),
+    )
+    return make_record(
+        mode=mode,
+        preset=preset,
+        overrides=overrides,
+        parameters=parameters,
+        seed=seed,
+        tone_limits=tone_limits,
+        arguments=call,
+        sweep=sweep,
+        source=source,
+    )
 
 
 def make_record(
@@ -108,8 +196,6 @@ def make_record(
     source : mapping
         The ``input`` entry (see :func:`input_record`).
     """
-    from . import __version__
-
     return _plain(
         {
             "schema": SCHEMA,
@@ -138,9 +224,10 @@ def call_arguments(
     colour: str | None = None,
     alpha: bool | None = None,
     sweep: tuple[str, Sequence[Any]] | None = None,
+    plane_offset: int | None = None,
 ) -> dict[str, Any]:
     """The ``arguments`` of a record: every parameter, the seed, tone limits, channel axis
-    (and ``colour``, ``alpha`` when given).
+    (and ``colour``, ``alpha``, ``plane_offset`` when given).
 
     For a sweep the swept parameter (and ``tones`` when ``tone_ranges`` is
     swept: they are reset to T = L) gives way to ``parameter`` and ``values``.
@@ -154,6 +241,8 @@ def call_arguments(
         arguments["alpha"] = bool(alpha)
     if sweep:
         sweep_arguments(arguments, *sweep)
+    if plane_offset is not None:
+        arguments["plane_offset"] = plane_offset
     return arguments
 
 
@@ -170,8 +259,6 @@ def input_record(
     name: str, shape: Sequence[int], dtype: Any, sha256: str | None = None
 ) -> dict[str, Any]:
     """The ``input`` entry of a record: name, checksum of the file (or None), shape, dtype."""
-    import numpy as np
-
     return {
         "name": str(name),
         "sha256": sha256,

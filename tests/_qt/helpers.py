@@ -10,7 +10,7 @@ import re
 import numpy as np
 
 import napari_labyrinth
-from napari_labyrinth.plan import METADATA_KEY
+from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
 
 #: A guard against a hung run, not a time limit: the first run of a session compiles numba's
 #: kernels (the metrics' take ~20 s of CPU, 40 s on a loaded 2-core machine).

@@ -12,7 +12,7 @@ pytest.importorskip("pytestqt")
 
 from napari_labyrinth import find_window, samples
 from napari_labyrinth.core.presets import DEFAULT_PRESET, PRESETS
-from napari_labyrinth.plan import METADATA_KEY
+from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
 
 from .helpers import RUN_TIMEOUT_MS, run
 

@@ -9,7 +9,7 @@ pytest.importorskip("pytestqt")
 
 from napari_labyrinth._qt.form import MAIN_FIELDS, READING_FIELDS
 from napari_labyrinth.core.parameters import PARAMETERS, SEED
-from napari_labyrinth.plan import CURRENT_PLANE, Choices
+from napari_labyrinth.widget.choices import CURRENT_PLANE, Choices
 
 from .helpers import noise
 

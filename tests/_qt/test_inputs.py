@@ -11,7 +11,7 @@ pytest.importorskip("pytestqt")
 from napari.layers import Image
 
 from napari_labyrinth._qt.inputs import layer_snapshot
-from napari_labyrinth.plan import result_layer_kwargs
+from napari_labyrinth.widget.layer_kwargs import result_layer_kwargs
 
 from .helpers import noise
 

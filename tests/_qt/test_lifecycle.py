@@ -10,7 +10,7 @@ import pytest
 pytest.importorskip("napari")
 pytest.importorskip("pytestqt")
 
-from napari_labyrinth.plan import METADATA_KEY
+from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
 
 from .helpers import RUN_TIMEOUT_MS, noise, reproduce, run
 
@@ -160,7 +160,7 @@ def test_an_update_in_place_takes_the_name_contrast_and_transforms_of_the_new_re
 
 def _rendered_outcome(plan):
     """The outcome of ``plan``, rendered here (no worker)."""
-    from napari_labyrinth.run import render
+    from napari_labyrinth.widget.run import render
 
     steps = render(plan)
     while True:

@@ -10,7 +10,7 @@ npe2 = pytest.importorskip("npe2")
 
 from napari.layers import Image
 
-from napari_labyrinth.plan import METADATA_KEY
+from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
 
 from .helpers import (
     RUN_TIMEOUT_MS,

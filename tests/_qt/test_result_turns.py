@@ -10,7 +10,7 @@ pytest.importorskip("napari")
 pytest.importorskip("pytestqt")
 
 from napari_labyrinth._qt.worker import main_window
-from napari_labyrinth.plan import METADATA_KEY
+from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
 
 from .helpers import RUN_TIMEOUT_MS, noise, reproduce, run
 

@@ -19,9 +19,10 @@ import napari_labyrinth
 from napari_labyrinth import api
 from napari_labyrinth._qt.widget import LabyrinthWidget
 from napari_labyrinth.core import presets
-from napari_labyrinth.plan import CURRENT_PLANE, METADATA_KEY
+from napari_labyrinth.widget.choices import CURRENT_PLANE
+from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
 
-from ..plan_helpers import counting_lazy
+from ..widget.plan_helpers import counting_lazy
 from .helpers import grid_squares, labyrinth_docks, noise, reproduce, result_data, run
 
 # -- opening, choices, presets -----------------------------------------------------------------

@@ -19,7 +19,8 @@ from qtpy.QtCore import QPointF, QRectF, Qt
 from qtpy.QtGui import QColor, QPainter, QPen
 from qtpy.QtWidgets import QSizePolicy
 
-from ..plan import Choices, LayerSnapshot, make_plan
+from ..widget.choices import Choices, LayerSnapshot
+from ..widget.plan import make_plan
 from ..window import Window, window_for
 from .collector import hold_while_running
 from .form import ParameterForm

@@ -10,7 +10,7 @@ from napari.layers import Image
 from napari.utils.notifications import show_info
 from napari.viewer import Viewer
 
-from ..plan import METADATA_KEY
+from ..widget.layer_kwargs import METADATA_KEY
 
 
 class CompareView:

@@ -6,7 +6,7 @@ choices, and a tooltip citing the paper's equation and value. The main
 section holds the paper's parameters, the collapsible one the reading options
 (the points the paper leaves open). Choosing a preset fills every field; a
 field edited afterwards overrides the preset
-(:func:`napari_labyrinth.plan.overrides`).
+(:func:`napari_labyrinth.widget.choices.overrides`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,8 @@ from magicgui.widgets import CheckBox, ComboBox, Container, FloatSpinBox, Label,
 
 from ..core.parameters import FLOAT_DECIMALS, PARAMETERS, SEED, Parameter
 from ..core.presets import PRESETS
-from ..plan import edited_text, overrides, preset_field_values
+from ..widget.choices import overrides, preset_field_values
+from ..widget.text import edited_text
 
 #: Parameters with a field: every one that takes one value (``tones`` is set by
 #: its range count), the paper's in the main section, the readings apart.

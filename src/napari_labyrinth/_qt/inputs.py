@@ -10,14 +10,8 @@ from napari.layers import Image
 from napari.viewer import Viewer
 
 from ..core.colour import COLOUR_MODES
-from ..plan import (
-    ALL_PLANES,
-    CURRENT_PLANE,
-    LayerSnapshot,
-    tone_limit_text,
-    tone_limits,
-    visible_plane,
-)
+from ..widget.choices import ALL_PLANES, CURRENT_PLANE, LayerSnapshot, visible_plane
+from ..widget.text import tone_limit_text, tone_limits
 
 
 def layer_snapshot(layer: Image | None, world_point: Sequence[float]) -> LayerSnapshot | None:

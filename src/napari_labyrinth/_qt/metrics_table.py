@@ -14,7 +14,7 @@ from qtpy.QtWidgets import (
     QTableWidgetItem,
 )
 
-from ..plan import metric_cells, metric_row_headers
+from ..widget.text import metric_cells, metric_row_headers
 from .plot_layout import compact_font
 
 

@@ -22,8 +22,9 @@ from napari.layers import Image
 from napari.viewer import Viewer
 from qtpy.QtCore import QObject, QTimer
 
-from ..plan import Choices, LayerSnapshot, RenderPlan, make_plan, preview_choices
-from ..run import Failure, Outcome, result_layer
+from ..widget.choices import Choices, LayerSnapshot, preview_choices
+from ..widget.plan import RenderPlan, make_plan
+from ..widget.run import Failure, Outcome, result_layer
 from .collector import hold_full_collections, hold_while_running
 from .worker import (
     NEXT_TURN_MS,

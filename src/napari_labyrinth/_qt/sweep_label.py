@@ -5,7 +5,8 @@ from __future__ import annotations
 from napari.layers import Image
 from napari.viewer import Viewer
 
-from ..plan import METADATA_KEY, sweep_label
+from ..widget.layer_kwargs import METADATA_KEY
+from ..widget.text import sweep_label
 
 
 class SweepLabel:

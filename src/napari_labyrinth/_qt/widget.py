@@ -3,7 +3,7 @@
 Layout and wiring only. The sections live in their own modules (the input in
 :mod:`.inputs`, the parameter fields in :mod:`.form`, the metrics table in
 :mod:`.metrics_table`, compare in :mod:`.compare`); what a run does is
-decided by :func:`napari_labyrinth.plan.make_plan` from a snapshot of the
+decided by :func:`napari_labyrinth.widget.plan.make_plan` from a snapshot of the
 input layer and of the user's choices, and :mod:`.worker` runs it in a napari
 thread worker and adds the layer it hands back, whose metadata records the API
 call so that it can be reproduced exactly.
@@ -34,8 +34,10 @@ from superqt import QCollapsible
 from .._warmup import DEFAULT_DTYPE
 from ..core._jit import compiling, watch_compiles
 from ..core.presets import DEFAULT_PRESET
-from ..plan import MODES, SWEEP_PARAMETERS, Choices, RenderPlan, default_sweep_text, make_plan
-from ..run import Failure, Outcome
+from ..widget.choices import Choices
+from ..widget.plan import MODES, RenderPlan, make_plan
+from ..widget.run import Failure, Outcome
+from ..widget.text import SWEEP_PARAMETERS, default_sweep_text
 from .auto_window import AutoWindow
 from .collector import hold_full_collections
 from .compare import CompareView
@@ -361,7 +363,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         )
 
     def plan(self) -> RenderPlan:
-        """Capture the current choices as a :class:`~napari_labyrinth.plan.RenderPlan`.
+        """Capture the current choices as a :class:`~napari_labyrinth.widget.plan.RenderPlan`.
 
         Raises
         ------

@@ -1,6 +1,6 @@
 """A run in a napari thread worker: progress bar, cancel, and the layer it adds.
 
-The worker drives :func:`napari_labyrinth.run.render`, a generator: napari
+The worker drives :func:`napari_labyrinth.widget.run.render`, a generator: napari
 draws a determinate progress bar from its yields. A cancel (the widget's
 button, or napari's activity panel) stops the run at the next pass, and the
 run is closed at once, which stops the rendering threads behind it.
@@ -17,8 +17,8 @@ from napari.qt.threading import create_worker
 from napari.viewer import Viewer
 from qtpy.QtWidgets import QWidget
 
-from ..plan import RenderPlan
-from ..run import Outcome, render, result_layer
+from ..widget.plan import RenderPlan
+from ..widget.run import Outcome, render, result_layer
 
 #: Title of a run's progress bar in napari's activity panel.
 PROGRESS_TITLE = "Labyrinthine tiling"

@@ -6,7 +6,13 @@ import argparse
 import os
 from pathlib import Path
 
-from . import (
+import numpy as np
+
+from ..api import Result, labyrinth_steps
+from ..io import ImageMetadata, write_image
+from ..provenance import file_checksum, input_record, rendering_record
+from ..samples import SAMPLES
+from ._common import (
     EXIT_FAILED,
     EXIT_OK,
     Refused,
@@ -16,12 +22,10 @@ from . import (
     print_error,
     print_output,
 )
+from .options import DEMO_STACK_PASSES
 
 #: Samples the demo renders, in order.
 DEMO_SAMPLES = ("nematic_schlieren", "camera")
-
-#: Passes of the stack the demo writes.
-DEMO_STACK_PASSES = 4
 
 #: Width in pixels of the white band between the panels of the demo's comparison.
 SEPARATOR_WIDTH = 4
@@ -32,8 +36,6 @@ LABEL_HEIGHT = 28
 
 def demo_command(args: argparse.Namespace) -> int:
     """Run ``napari-labyrinth demo``; the exit code."""
-    from ..samples import SAMPLES
-
     directory = Path(args.output)
     if directory.exists() and not directory.is_dir():
         raise UsageError(f"{directory} is not a directory")
@@ -81,19 +83,16 @@ def demo_command(args: argparse.Namespace) -> int:
 
 def _render(input_path: Path, image, mode: str, kwargs: dict):
     """The rendering of ``image`` (read from ``input_path``) and its provenance record."""
-    from ..api import Result, labyrinth_steps
-    from .render import provenance_record
-
     for event in labyrinth_steps(image, mode, **kwargs):
         if isinstance(event, Result):
-            record = provenance_record(input_path, image, mode, kwargs, event.tone_limits)
+            source = input_record(input_path, image.shape, image.dtype, file_checksum(input_path))
+            record = rendering_record(mode, kwargs, source=source, tone_limits=event.tone_limits)
             return event.image, record
     raise AssertionError("labyrinth_steps ends with a Result")
 
 
 def _write(path: Path, data, record, overwrite: bool) -> bool:
     """Write ``data`` (with its record) and print its path; False after an error message."""
-    from ..io import ImageMetadata, write_image
 
     try:
         write_image(path, data, overwrite=overwrite, metadata=ImageMetadata(provenance=record))
@@ -106,8 +105,6 @@ def _write(path: Path, data, record, overwrite: bool) -> bool:
 
 def _to_uint8(image):
     """uint8 copy of a sample: floats in [0, 1] scaled by 255, other types min-max scaled."""
-    import numpy as np
-
     image = np.asarray(image)
     if image.dtype == np.uint8:
         return image
@@ -121,8 +118,6 @@ def _to_uint8(image):
 def _side_by_side(panels, labels):
     """uint8 panels of equal height in a row, separated by thin white bands, each under
     its label."""
-    import numpy as np
-
     panels = [_labelled(_to_uint8(panel), label) for panel, label in zip(panels, labels)]
     band = np.full((panels[0].shape[0], SEPARATOR_WIDTH), 255, dtype=np.uint8)
     row = []
@@ -135,7 +130,6 @@ def _side_by_side(panels, labels):
 
 def _labelled(panel, label: str):
     """A grey uint8 panel under a white band holding ``label`` in black, centred."""
-    import numpy as np
     from PIL import Image, ImageDraw, ImageFont
 
     band = Image.new("L", (panel.shape[1], LABEL_HEIGHT), 255)

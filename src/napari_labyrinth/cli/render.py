@@ -26,7 +26,28 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from . import (
+from .. import api
+from ..core.parameters import is_auto, without_auto
+from ..core.planes import plane_axes
+from ..core.presets import DEFAULT_PRESET, resolve_parameters
+from ..io import (
+    FORMATS_WITHOUT_METADATA,
+    LOSSY_FORMATS,
+    ImageFileError,
+    check_output,
+    enclosing_zarr_store,
+    image_format,
+    ome_lost,
+    open_image,
+    read_metadata,
+    release_files,
+    write_array,
+    zarr_root,
+)
+from ..lazy import ComputeError, is_lazy, rendering_tone_limits
+from ..provenance import file_checksum, input_record, rendering_record
+from ..window import window_for
+from ._common import (
     EXIT_FAILED,
     EXIT_OK,
     PROG,
@@ -37,9 +58,9 @@ from . import (
     make_directory,
     path_key,
     print_output,
+    raise_if_interrupted,
 )
-from .interrupts import raise_if_interrupted
-from .parser import render_options
+from .options import SCHEDULER_TIMEOUT, render_options
 
 #: Suffix a directory batch gives the rendering of an input in a lossy format, or in
 #: one that holds no provenance record.
@@ -48,9 +69,6 @@ LOSSLESS_SUFFIX = ".png"
 #: What the second progress bar counts: passes over a plane (in memory), or planes
 #: written (a lazy rendering, computed as it is written).
 PROGRESS_LABELS = {"pass": "passes", "plane": "planes written"}
-
-#: Seconds to wait for a dask scheduler given by --scheduler (--scheduler-timeout).
-SCHEDULER_TIMEOUT = 10.0
 
 
 @dataclasses.dataclass
@@ -234,8 +252,6 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
 
 def _failure(exc: Exception, job: _Job) -> str:
     """One line for a file that failed; errors nobody foresaw also name their type."""
-    from ..lazy import ComputeError
-
     text = describe(exc, job.input)
     foreseen = (_FileError, OSError, ValueError, TypeError, MemoryError, ComputeError)
     return text if isinstance(exc, foreseen) else f"{type(exc).__name__}: {text}"
@@ -243,7 +259,6 @@ def _failure(exc: Exception, job: _Job) -> str:
 
 def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
     """The jobs, and the output directory to create (None when writing one file)."""
-    from ..io import FORMATS_WITHOUT_METADATA, LOSSY_FORMATS, image_format, zarr_root
 
     inputs = [Path(p) for p in args.inputs]
     if not args.output.strip():  # Path("") is the current directory
@@ -316,7 +331,6 @@ def _keep_apart(jobs: list[_Job]) -> None:
     (results named after their store) become ``group_raw_labyrinth.zarr`` and
     ``group_other_labyrinth.zarr``.
     """
-    from ..io import zarr_root
 
     names: dict[str, int] = {}
     for job in jobs:
@@ -340,7 +354,6 @@ def _keep_apart(jobs: list[_Job]) -> None:
 
 def _check_lossless(output: Path, kind: str, lossy: bool) -> None:
     """Refuse a lossy output format without --lossy; note a format without metadata."""
-    from ..io import FORMATS_WITHOUT_METADATA, LOSSY_FORMATS
 
     if kind in LOSSY_FORMATS and not lossy:
         raise UsageError(
@@ -353,7 +366,6 @@ def _check_lossless(output: Path, kind: str, lossy: bool) -> None:
 
 def _check_overwrites(jobs: list[_Job], *, overwrite: bool) -> None:
     """Refuse colliding outputs always, and existing files without --overwrite."""
-    from ..io import enclosing_zarr_store, zarr_root
 
     inputs = {}
     stores = {}  # the zarr stores that hold inputs: nothing is written inside one
@@ -425,19 +437,6 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     memory) and reported. Other inputs are rendered in memory (progress
     counts plane-passes).
     """
-    from .. import api
-    from ..core.parameters import without_auto
-    from ..core.planes import plane_axes
-    from ..io import (
-        ImageFileError,
-        check_output,
-        ome_lost,
-        open_image,
-        read_metadata,
-        release_files,
-        write_array,
-    )
-    from ..lazy import is_lazy, rendering_tone_limits
 
     metadata = read_metadata(job.input)
     channel_axis = input_channel_axis(metadata, args.channel_axis)
@@ -504,7 +503,8 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
                 result, limits = event.image, event.tone_limits
             else:
                 progress(event.done, event.total)
-        record = provenance_record(job.input, image, mode, kwargs, limits)
+        source = input_record(job.input, image.shape, image.dtype, file_checksum(job.input))
+        record = rendering_record(mode, kwargs, source=source, tone_limits=limits)
         job.output.parent.mkdir(parents=True, exist_ok=True)
         write_array(
             job.output,
@@ -522,7 +522,6 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
 def _check_colour(path: Path, colour, shape, channel_axis, kwargs: dict[str, Any]) -> None:
     """Refuse ``--colour`` for an image it cannot apply to, in the command line's words
     (the API's message names its own keywords, which the user never gave)."""
-    from ..io import ImageFileError
 
     if colour is None:
         return
@@ -546,8 +545,6 @@ def _check_colour(path: Path, colour, shape, channel_axis, kwargs: dict[str, Any
 def _result_shape(shape: tuple[int, ...], mode: str, kwargs: dict[str, Any]) -> tuple[int, ...]:
     """The shape of a rendering of an image of ``shape``: a leading axis of the input and
     every pass (stack), or of the values (sweep)."""
-    from ..core.presets import DEFAULT_PRESET, resolve_parameters
-
     if mode == "stack":
         passes = kwargs.get("passes")
         if passes is None:  # the preset's
@@ -560,9 +557,6 @@ def _result_shape(shape: tuple[int, ...], mode: str, kwargs: dict[str, Any]) -> 
 
 def _choose_auto_threshold(job: _Job, image, kwargs: dict[str, Any]) -> None:
     """``variance_threshold=auto``: choose V on this image (find_window) and report it."""
-    from ..core.parameters import is_auto
-    from ..window import window_for
-
     if not is_auto(kwargs.get("variance_threshold")):
         return
     options = {k: v for k, v in kwargs.items() if k not in ("parameter", "values")}
@@ -576,49 +570,6 @@ def input_channel_axis(metadata, given: int | str | None) -> int | None:
     if given == "none":
         return None
     return metadata.channel_axis if given is None else given
-
-
-def provenance_record(
-    path: Path, image, mode: str, kwargs: dict[str, Any], tone_limits
-) -> dict[str, Any]:
-    """The provenance record of the rendering of ``path`` with ``kwargs`` (API keywords)."""
-    from ..core.colour import resolve_colour
-    from ..core.parameters import PARAMETERS
-    from ..core.presets import DEFAULT_PRESET, resolve_parameters
-    from ..provenance import call_arguments, file_checksum, input_record, make_record
-
-    preset = kwargs.get("preset", DEFAULT_PRESET)
-    overrides = {name: value for name, value in kwargs.items() if name in PARAMETERS}
-    parameters = resolve_parameters(preset, **overrides).as_dict()
-    seed = kwargs.get("seed", 0)
-    sweep = (kwargs["parameter"], kwargs["values"]) if mode == "sweep" else None
-    if tone_limits is None:
-        tone_limits = kwargs.get("tone_limits")
-    channel_axis, colour = kwargs.get("channel_axis"), kwargs.get("colour")
-    if channel_axis is not None:  # the colour mode the default chose, written down
-        colour = resolve_colour(colour, image.shape, channel_axis)
-    arguments = call_arguments(
-        preset=preset,
-        parameters=parameters,
-        seed=seed,
-        tone_limits=tone_limits,
-        channel_axis=channel_axis,
-        colour=colour,
-        alpha=kwargs.get("alpha"),
-        sweep=sweep,
-    )
-    source = input_record(path, image.shape, image.dtype, file_checksum(path))
-    return make_record(
-        mode=mode,
-        preset=preset,
-        overrides=overrides,
-        parameters=parameters,
-        seed=seed,
-        tone_limits=tone_limits,
-        arguments=arguments,
-        sweep=sweep,
-        source=source,
-    )
 
 
 def _note(message: str) -> None:

@@ -7,17 +7,17 @@ import os
 from pathlib import Path
 from typing import Any
 
-from . import EXIT_FAILED, EXIT_OK, PROG, Failed, describe, print_output
+import numpy as np
+
+from .. import __version__, api
+from ..io import LOSSY_FORMATS, image_format, open_image, read_image, read_provenance
+from ..lazy import computing, is_lazy
+from ..provenance import file_checksum, reproduce_call
+from ._common import EXIT_FAILED, EXIT_OK, PROG, Failed, describe, print_output
 
 
 def reproduce_command(args: argparse.Namespace) -> int:
     """Run ``napari-labyrinth reproduce``; the exit code (0: identical, 1: not)."""
-    import numpy as np
-
-    from .. import __version__, api
-    from ..io import LOSSY_FORMATS, image_format, open_image, read_image, read_provenance
-    from ..lazy import computing, is_lazy
-    from ..provenance import file_checksum, reproduce_call
 
     output = Path(args.output)
     try:
@@ -101,16 +101,12 @@ def find_input(output: Path, source: dict[str, Any], given: str | None) -> Path:
 
 def identical(a, b) -> bool:
     """Same shape, dtype and bytes (NaNs included)."""
-    import numpy as np
-
     a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
     return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
 
 def difference(written, again) -> str:
     """How two arrays differ, in words."""
-    import numpy as np
-
     if written.shape != again.shape or written.dtype != again.dtype:
         return (
             f"the output is {written.dtype} {tuple(written.shape)}, the new rendering "

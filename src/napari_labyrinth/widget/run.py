@@ -3,7 +3,7 @@
 :func:`render` is a generator that drives
 :func:`~napari_labyrinth.labyrinth_steps`, yields after every pass of every
 plane (napari draws a determinate progress bar from its yields), computes the
-per-pass metrics of a stack, and returns an :class:`Outcome`, a
+per-pass metrics of a stack (:mod:`~napari_labyrinth.widget.pass_metrics`), and returns an :class:`Outcome`, a
 :class:`Failure` with a message for the user, or None when cancelled. It
 reads only the plan, never the viewer, so it runs in a worker thread, or
 directly in a script or a test. Cancelling: ``plan.cancel`` (or napari's
@@ -19,23 +19,25 @@ rendered by napari when the slider reaches them (:func:`splice_plane`).
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections.abc import Generator
 from typing import Any
 
 import numpy as np
 
-from . import api, metrics
-from .core.colour import luminance, resolve_colour
-from .core.planes import PlaneLayout, first_plane_index
-from .plan import METADATA_KEY, METRIC_ROWS, RenderPlan
+from .. import api
+from .layer_kwargs import METADATA_KEY
+from .pass_metrics import PassMetrics
+from .plan import Cancelled, RenderPlan
 
-__all__ = ["Cancelled", "Failure", "Outcome", "render", "result_layer", "splice_plane"]
-
-
-class Cancelled(Exception):
-    """Raised in the progress callback when the user cancelled."""
+__all__ = [
+    "Failure",
+    "Outcome",
+    "diagnostics_record",
+    "render",
+    "result_layer",
+    "splice_plane",
+]
 
 
 @dataclasses.dataclass
@@ -63,7 +65,7 @@ def _api_steps(
     With ``measure``, the passes of the plane on screen are measured as they
     render (one more yield per pass). Returns (as the generator's value) the
     result and its diagnostics. Stops at the next pass, or between two
-    metrics, once the plan asks to (raising :class:`Cancelled`); the API's
+    metrics, once the plan asks to (raising :class:`~.plan.Cancelled`); the API's
     run is closed on the way out, whatever the way, so no thread of it goes
     on after this generator ends or is closed.
     """
@@ -117,89 +119,6 @@ def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
         return Failure("not enough memory: render the current plane only, or a smaller image")
     except Exception as exc:  # noqa: BLE001 - anything else still reaches the user as a message
         return Failure(f"{type(exc).__name__}: {exc}")
-
-
-def _grey(plane: np.ndarray, rgb: bool) -> np.ndarray:
-    """A 2-D plane of the values the metrics measure (in tones): the luminance of a colour
-    plane."""
-    if rgb:
-        return luminance(np.asarray(plane), axis=-1)
-    return np.asarray(plane)
-
-
-class PassMetrics:
-    """Pattern and edge metrics of every pass of a stack, on the plane on screen.
-
-    A pass is measured as soon as every plane at the position on screen (one,
-    or one per colour channel) has reported it; the original's own maps are
-    computed once for all passes. The planes are measured on the tone scale
-    the passes ran on (``Progress.tone_limits``), where the metrics' bounds
-    lie (``metrics.ENERGY_FLOOR`` is in tones): the same image as uint8,
-    uint16 or float in [0, 1] gets the same numbers.
-    """
-
-    def __init__(self, plan: RenderPlan, data: np.ndarray) -> None:
-        self.rgb = plan.rgb
-        self.index = () if plan.source_index is not None else tuple(plan.visible_index)
-        self.original: np.ndarray | None = _grey(data[self.index], self.rgb)
-        self.comparison: metrics.Comparison | None = None  # from the first pass measured
-        colour = plan.arguments.get("colour")
-        self.planes = visible_planes(data.shape, self.index, self.rgb, colour)
-        self.waiting: dict[int, set[int]] = {}
-        self.previous = np.asarray(data[self.index])
-        self.rows: list[dict[str, float]] = []
-
-    def ready(self, event: api.Progress) -> bool:
-        """Whether ``event`` completes a pass at the position on screen."""
-        if event.plane not in self.planes:
-            return False
-        waiting = self.waiting.setdefault(event.pass_number, set(self.planes))
-        waiting.discard(event.plane)
-        return not waiting
-
-    def measure(
-        self, stack: np.ndarray, pass_number: int, should_stop, tone_limits: tuple[float, float]
-    ) -> None:
-        """Measure pass ``pass_number`` of ``stack``, on the tone scale of ``tone_limits``;
-        raise :class:`Cancelled` between metrics."""
-        if self.original is not None:
-            try:
-                self.comparison = metrics.Comparison(self.original, tone_limits=tone_limits)
-            except ValueError:  # a plane too small for the metrics' windows: rows of NaN
-                self.comparison = None
-            self.original = None  # the comparison holds its tones
-        rendered = np.asarray(stack[(pass_number,) + self.index])
-        row: dict[str, float] = {"pass": pass_number}
-        row.update({key: math.nan for key, _, function in METRIC_ROWS if function})
-        if self.comparison is not None:
-            for name, value in self.comparison.describe_steps(_grey(rendered, self.rgb)):
-                if should_stop():
-                    raise Cancelled
-                row[name] = value
-        changed = rendered != self.previous
-        if rendered.dtype.kind == "f":  # a NaN pixel that stays NaN is unchanged
-            changed &= ~(np.isnan(rendered) & np.isnan(self.previous))
-        row["changed"] = 100.0 * float((changed.any(axis=-1) if self.rgb else changed).mean())
-        self.rows.append(row)
-        self.previous = rendered
-
-
-def visible_planes(
-    shape: tuple[int, ...], index: tuple[int, ...], rgb: bool, colour: str | None = None
-) -> set[int]:
-    """Flat indices (the API's plane order, ``Progress.plane``) of the planes rendered at
-    ``index`` of the data: one per colour channel but alpha, or the first channel's alone
-    when the luminance is rendered."""
-    channel_axis = -1 if rgb else None
-    first = first_plane_index(shape, index, channel_axis)
-    if not rgb or resolve_colour(colour, shape, -1) == "luminance":
-        return {first}
-    layout = PlaneLayout(tuple(shape), len(shape) - 1)
-    return {
-        first + k
-        for k in range(shape[-1])
-        if not layout.is_alpha(np.unravel_index(first + k, layout.leading_shape))
-    }
 
 
 def _as_dask(data: Any, n_leading: int):

@@ -7,8 +7,8 @@ import json
 import numpy as np
 
 import napari_labyrinth
-from napari_labyrinth.plan import METADATA_KEY
-from napari_labyrinth.run import render
+from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
+from napari_labyrinth.widget.run import render
 
 
 def noise(shape, dtype=np.uint8, seed=0):

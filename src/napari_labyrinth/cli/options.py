@@ -1,9 +1,13 @@
-"""The arguments of ``napari-labyrinth``: the parser, the value parsers and the API options.
+"""The options of ``napari-labyrinth``'s commands: flags from the parameter table, their values.
 
 Every flag that becomes a keyword argument of the API is added by
-``_add_parameter_arguments`` and gathered by ``render_options``; the values
-of ``--set`` and ``--sweep`` are read by ``_parse_value``. Nothing heavy is
-imported here, so ``--help`` answers at once.
+:func:`add_parameter_arguments` (one per parameter of the table that takes
+one word, ``--set NAME=VALUE`` for any of them, ``--sweep NAME=V1,V2,...``)
+and gathered by :func:`render_options`, which parses the values with the
+table so that a bad one gets the table's one-line message. The value parsers
+of the other flags (:func:`scheduler_address`, :func:`seconds`) and the
+defaults the help texts name are here too. Nothing heavy is imported here, so
+``--help`` answers at once.
 """
 
 from __future__ import annotations
@@ -12,136 +16,30 @@ import argparse
 import os
 from typing import Any
 
-from ..core.parameters import AUTO
-from . import PROG, UsageError, one_line
-from .demo import DEMO_STACK_PASSES
+from ..core.colour import COLOUR_MODES
+from ..core.parameters import AUTO, PARAMETERS, SWEEPABLE, format_value, without_auto
+from ..core.presets import DEFAULT_PRESET, PRESETS, resolve_parameters, resolve_sweep
+from ..core.tone_scale import validate_tone_limits
+from ._common import UsageError, one_line
+
+__all__ = [
+    "DEMO_STACK_PASSES",
+    "SCHEDULER_TIMEOUT",
+    "add_parameter_arguments",
+    "parameter_help",
+    "render_options",
+    "scheduler_address",
+    "seconds",
+]
+
+#: Seconds to wait for a dask scheduler given by --scheduler (--scheduler-timeout).
+SCHEDULER_TIMEOUT = 10.0
+
+#: Passes of the stack ``napari-labyrinth demo`` writes.
+DEMO_STACK_PASSES = 4
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The parser of ``napari-labyrinth`` and its ``render`` and ``demo`` commands."""
-    from .. import __version__
-    from ..core.presets import DEFAULT_PRESET
-    from .render import SCHEDULER_TIMEOUT
-
-    parser = argparse.ArgumentParser(
-        prog=PROG,
-        description=("Render images with the labyrinthine tiling of Sparavigna & Montrucchio."),
-    )
-    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
-    parser.set_defaults(command=None)
-    commands = parser.add_subparsers(title="commands", metavar="COMMAND")
-
-    render = commands.add_parser(
-        "render",
-        help="render image files",
-        description=(
-            "Render image files (TIFF, PNG, JPEG, BMP) and zarr stores. Parameters not "
-            f"given come from the preset (default {DEFAULT_PRESET!r}). The result keeps "
-            "the input's shape and dtype; stacks and sweeps are written as TIFF or zarr. "
-            "Colour, OME axes and pixel sizes are read from the file and written back; "
-            "outputs are lossless (JPEG only with --lossy) and record how they were made "
-            "(see 'reproduce'). zarr stores and TIFF stacks over 1 GiB are rendered block "
-            "by block, in bounded memory."
-        ),
-    )
-    render.set_defaults(command="render")
-    render.add_argument(
-        "inputs",
-        nargs="+",
-        metavar="INPUT",
-        help="image file(s) or .zarr store(s) (store.zarr/NAME: an array of a group)",
-    )
-    render.add_argument(
-        "-o",
-        "--output",
-        required=True,
-        metavar="OUTPUT",
-        help=(
-            "output file or .zarr store (one input; format from its suffix) or directory "
-            "(created if missing), where each result is named <stem>_labyrinth<suffix>"
-        ),
-    )
-    _add_parameter_arguments(render)
-    render.add_argument(
-        "--scheduler",
-        type=_scheduler_address,
-        metavar="ADDRESS",
-        help=(
-            "render on a dask.distributed cluster: the scheduler's address "
-            "(tcp://host:8786), its scheduler file, or local:N to start N worker "
-            "processes on this machine; workers need napari-labyrinth and must see the "
-            "input and .zarr output paths"
-        ),
-    )
-    render.add_argument(
-        "--scheduler-timeout",
-        type=_seconds,
-        metavar="SECONDS",
-        help=(
-            "how long to wait for the --scheduler to answer before failing "
-            f"(default {SCHEDULER_TIMEOUT:g})"
-        ),
-    )
-    render.add_argument(
-        "--overwrite", action="store_true", help="replace existing files, inputs included"
-    )
-    render.add_argument(
-        "--lossy",
-        action="store_true",
-        help=(
-            "allow a lossy output format (.jpg): JPEG compression blurs the pixel-scale "
-            "texture; without it a .jpg output is refused, and a directory batch writes "
-            "JPEG inputs as PNG"
-        ),
-    )
-
-    reproduce = commands.add_parser(
-        "reproduce",
-        help="render an output again from its provenance record and compare bit for bit",
-        description=(
-            "Read the provenance record an output of 'render' carries (TIFF description or "
-            "OME annotation, PNG text chunk, zarr attributes), check that the input is the "
-            "file that was rendered (SHA-256), render it again with the recorded call and "
-            "compare the result with the output bit for bit. Exit code 0 if identical, 1 if "
-            "not."
-        ),
-    )
-    reproduce.set_defaults(command="reproduce")
-    reproduce.add_argument(
-        "output", metavar="OUTPUT", help="a file or .zarr store written by render"
-    )
-    reproduce.add_argument(
-        "--input",
-        metavar="INPUT",
-        help=(
-            "the input file (default: the recorded name, relative to the current directory, "
-            "then to OUTPUT's directory)"
-        ),
-    )
-
-    demo = commands.add_parser(
-        "demo",
-        help="render the built-in samples into a directory",
-        description=(
-            "Render the synthetic nematic Schlieren texture and the camera photograph "
-            "with the default preset; write each input, its rendering, a "
-            f"{DEMO_STACK_PASSES}-pass stack (TIFF) and a side-by-side comparison, and "
-            "print the path of every file written."
-        ),
-    )
-    demo.set_defaults(command="demo")
-    demo.add_argument(
-        "-o",
-        "--output",
-        default="labyrinth-demo",
-        metavar="DIR",
-        help="output directory (default: labyrinth-demo)",
-    )
-    demo.add_argument("--overwrite", action="store_true", help="replace existing files")
-    return parser
-
-
-def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
+def add_parameter_arguments(render: argparse.ArgumentParser) -> None:
     """Every flag of ``render`` that becomes a keyword argument of the API, in help order.
 
     The preset, one flag per parameter of the table that takes one word
@@ -151,10 +49,6 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
     as text here and parsed by ``render_options``, so that a bad value gets
     the table's one-line message.
     """
-    from ..core.colour import COLOUR_MODES
-    from ..core.parameters import SWEEPABLE
-    from ..core.presets import DEFAULT_PRESET, PRESETS
-
     render.add_argument(
         "--preset", choices=sorted(PRESETS), help=f"parameter set (default {DEFAULT_PRESET})"
     )
@@ -227,9 +121,6 @@ def _add_parameter_arguments(render: argparse.ArgumentParser) -> None:
 def parameter_help(name: str) -> str:
     """A parameter's help: the table's doc line, its default under the default preset, and
     the paper's value (the seed has no paper value)."""
-    from ..core.parameters import PARAMETERS, SWEEPABLE, format_value
-    from ..core.presets import DEFAULT_PRESET, PRESETS
-
     parameter = SWEEPABLE[name]
     where = parameter.equation
     if parameter.symbol:
@@ -275,7 +166,7 @@ def _metavar(parameter) -> str:
 # -- values ---------------------------------------------------------------------------------------
 
 
-def _scheduler_address(text: str) -> str | int:
+def scheduler_address(text: str) -> str | int:
     """A scheduler address, or the number of local workers of ``local[:N]``."""
     text = text.strip()
     name, sep, count = text.partition(":")
@@ -294,7 +185,7 @@ def _scheduler_address(text: str) -> str | int:
     return workers
 
 
-def _seconds(text: str) -> float:
+def seconds(text: str) -> float:
     """A positive, finite number of seconds (up to a day)."""
     try:
         seconds = float(text)
@@ -332,10 +223,6 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
     UsageError
         One line naming the parameter and what it expects.
     """
-    from ..core.parameters import without_auto
-    from ..core.presets import DEFAULT_PRESET, resolve_parameters, resolve_sweep
-    from ..core.tone_scale import validate_tone_limits
-
     preset = args.preset or DEFAULT_PRESET
     try:
         options = _parameter_values(args)
@@ -367,8 +254,6 @@ def render_options(args: argparse.Namespace) -> dict[str, Any]:
 
 def _parameter_values(args: argparse.Namespace) -> dict[str, Any]:
     """The parameters and the seed given by their flags or ``--set``, parsed by the table."""
-    from ..core.parameters import PARAMETERS, SWEEPABLE
-
     given = [(name, getattr(args, name)) for name in SWEEPABLE if getattr(args, name) is not None]
     for name, text in args.assignments or ():
         if name not in PARAMETERS:
@@ -386,8 +271,6 @@ def _parameter_values(args: argparse.Namespace) -> dict[str, Any]:
 
 def _sweep_values(args: argparse.Namespace, given: dict[str, Any]) -> tuple[str, list[Any]]:
     """``--sweep``'s parameter and its values, parsed by the table."""
-    from ..core.parameters import SWEEPABLE
-
     name, texts = args.sweep
     if name not in SWEEPABLE:
         raise UsageError(f"--sweep: unknown parameter {name!r}; use one of {', '.join(SWEEPABLE)}")

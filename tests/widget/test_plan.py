@@ -13,33 +13,36 @@ import pytest
 import napari_labyrinth
 from napari_labyrinth import api, metrics, provenance
 from napari_labyrinth.core import presets
-from napari_labyrinth.plan import (
+from napari_labyrinth.widget.choices import (
     CURRENT_PLANE,
-    METADATA_KEY,
-    METRIC_ROWS,
-    SWEEP_PARAMETERS,
     Choices,
     LayerSnapshot,
+    overrides,
+    preset_field_values,
+    preview_choices,
+    visible_plane,
+)
+from napari_labyrinth.widget.layer_kwargs import (
+    METADATA_KEY,
     data_to_physical,
+    result_layer_kwargs,
+)
+from napari_labyrinth.widget.plan import make_plan, run_steps
+from napari_labyrinth.widget.text import (
+    METRIC_ROWS,
+    SWEEP_PARAMETERS,
     default_sweep_text,
     edited_text,
     format_metric,
-    make_plan,
     metric_cells,
     metric_row_headers,
-    overrides,
     parse_sweep_values,
     plane_label,
-    preset_field_values,
-    preview_choices,
     result_description,
-    result_layer_kwargs,
     result_name,
-    run_steps,
     sweep_label,
     tone_limit_text,
     tone_limits,
-    visible_plane,
 )
 
 from .plan_helpers import drive, noise

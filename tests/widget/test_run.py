@@ -13,15 +13,10 @@ import pytest
 
 from napari_labyrinth import api, metrics
 from napari_labyrinth.core.tone_scale import resolve_tone_scale
-from napari_labyrinth.plan import (
-    CURRENT_PLANE,
-    METADATA_KEY,
-    METRIC_ROWS,
-    Choices,
-    LayerSnapshot,
-    make_plan,
-)
-from napari_labyrinth.run import (
+from napari_labyrinth.widget.choices import CURRENT_PLANE, Choices, LayerSnapshot
+from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
+from napari_labyrinth.widget.plan import make_plan
+from napari_labyrinth.widget.run import (
     Failure,
     Outcome,
     diagnostics_record,
@@ -29,21 +24,24 @@ from napari_labyrinth.run import (
     result_layer,
     splice_plane,
 )
+from napari_labyrinth.widget.text import METRIC_ROWS
 
 from .plan_helpers import counting_lazy, drive, noise, reproduce
 
 data = pytest.importorskip("skimage.data")
 
-# -- the module stays Qt-free ------------------------------------------------------------------
+# -- the package stays Qt-free -----------------------------------------------------------------
 
 
-def test_plan_and_a_run_import_neither_napari_nor_qt():
+def test_the_widget_package_and_a_run_import_neither_napari_nor_qt():
     code = (
-        "import sys, numpy as np;"
-        "from napari_labyrinth.plan import LayerSnapshot, Choices, make_plan;"
-        "from napari_labyrinth.run import render;"
-        "plan = make_plan(LayerSnapshot.of(np.zeros((8, 8), np.uint8)), Choices());"
-        "list(render(plan));"
+        "import importlib, pkgutil, sys, numpy as np;"
+        "import napari_labyrinth.widget as widget;"
+        "[importlib.import_module(module.name) for module in"
+        " pkgutil.iter_modules(widget.__path__, 'napari_labyrinth.widget.')];"
+        "plan = widget.make_plan(widget.LayerSnapshot.of(np.zeros((8, 8), np.uint8)),"
+        " widget.Choices());"
+        "list(widget.render(plan));"
         "print(sorted(m for m in ('napari', 'qtpy', 'PyQt6', 'PyQt5', 'PySide6', 'magicgui',"
         " 'superqt', 'vispy') if m in sys.modules))"
     )
