@@ -283,6 +283,7 @@ def test_options_change_the_result(camera):
         assert not np.array_equal(base, other), option
 
 
+@pytest.mark.subprocess
 def test_import_does_not_load_numba():
     import subprocess
     import sys

@@ -25,6 +25,7 @@ DOCS = Path(__file__).resolve().parents[1] / "docs"
 GENERATED = ("_build", "auto_examples", "generated", "sg_execution_times.rst")
 
 
+@pytest.mark.subprocess
 @pytest.mark.slow
 def test_the_site_builds_without_warnings(tmp_path):
     source = tmp_path / "docs"

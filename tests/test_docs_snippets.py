@@ -120,6 +120,7 @@ def inputs(tmp_path_factory):
     return here
 
 
+@pytest.mark.subprocess
 @pytest.mark.parametrize(("page", "index"), numbered("bash"))
 def test_page_commands(page, index, inputs, monkeypatch, capsys):
     """The commands of one shell block, in order (``reproduce`` reads what ``render`` wrote)."""

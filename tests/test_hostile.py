@@ -399,6 +399,7 @@ def _dead_pid() -> int:
     return child.pid
 
 
+@pytest.mark.subprocess
 def test_temporaries_of_dead_writers_are_removed_by_the_next_write(tmp_path):
     name = "out.tif"
     dead = _dead_pid()

@@ -34,6 +34,8 @@ ROOT = Path(__file__).resolve().parents[1]
 TIMEOUT = 600
 
 pytestmark = [
+    pytest.mark.subprocess,
+    pytest.mark.slow,
     pytest.mark.skipif(
         os.environ.get("NAPARI_LABYRINTH_INSTALL_TESTS") != "1",
         reason="builds and installs the wheel (1-2 min): make test-install",

@@ -28,6 +28,7 @@ def test_installed_manifest_is_the_root_file():
     assert packaged.read_bytes() == (ROOT / "napari.yaml").read_bytes()
 
 
+@pytest.mark.subprocess
 def test_npe2_validates_the_installed_plugin():
     result = subprocess.run(
         NPE2 + ["validate", "napari-labyrinth"], capture_output=True, text=True, timeout=300
@@ -36,6 +37,7 @@ def test_npe2_validates_the_installed_plugin():
     assert "valid" in result.stdout
 
 
+@pytest.mark.subprocess
 @pytest.mark.skipif(not (ROOT / "pyproject.toml").exists(), reason="needs the source tree")
 def test_wheel_carries_the_root_manifest_and_validates(tmp_path):
     wheel_dir = tmp_path / "wheel"
@@ -134,6 +136,7 @@ def _metadata(text: str) -> email.message.Message:
     return email.parser.Parser().parsestr(text)
 
 
+@pytest.mark.subprocess
 def test_distributions_carry_the_license_and_the_citation(distributions):
     sdist, wheel = distributions
     license_text = (ROOT / "LICENSE").read_bytes()
@@ -151,6 +154,7 @@ def test_distributions_carry_the_license_and_the_citation(distributions):
     assert in_wheel[f"{dist_info}/extra_metadata/CITATION.cff"] == citation
 
 
+@pytest.mark.subprocess
 def test_metadata_states_the_license_as_an_spdx_expression(distributions):
     sdist, wheel = distributions
     in_wheel = _wheel_files(wheel)

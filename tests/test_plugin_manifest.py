@@ -30,6 +30,7 @@ def test_the_package_manifest_is_a_symlink_to_the_root_file():
     assert packaged.resolve() == (ROOT / "napari.yaml").resolve()
 
 
+@pytest.mark.subprocess
 def test_npe2_validates_the_manifest_and_imports_every_python_name():
     result = subprocess.run(
         [sys.executable, "-m", "npe2", "validate", PLUGIN, "--imports"],
@@ -80,6 +81,7 @@ def test_sample_functions_return_layer_data_tuples(function_name, shape, dtype):
     assert kwargs.get("rgb", False) == (len(shape) == 3)
 
 
+@pytest.mark.subprocess
 def test_sample_data_and_the_library_do_not_import_napari_or_qt():
     code = (
         "import sys, napari_labyrinth, napari_labyrinth._sample_data as s;"

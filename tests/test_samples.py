@@ -197,6 +197,7 @@ def test_default_samples_from_the_registry():
     np.testing.assert_array_equal(image, nematic_schlieren())
 
 
+@pytest.mark.subprocess
 def test_importing_samples_is_light():
     code = (
         "import sys, napari_labyrinth.samples; "

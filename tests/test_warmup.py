@@ -7,6 +7,7 @@ import pytest
 from napari_labyrinth import _warmup
 
 
+@pytest.mark.subprocess
 def test_the_warm_up_runs_as_a_module_says_its_steps_and_exits_cleanly():
     done = subprocess.run(
         _warmup.command("--dtype", "uint8"),

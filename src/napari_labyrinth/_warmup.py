@@ -48,7 +48,7 @@ def command(*arguments: str) -> list[str]:
 def warm_up_steps(dtype) -> list[tuple[str, Callable[[], object]]]:
     """The steps that compile what a first run on an image of ``dtype`` needs: a render
     with the default preset, then the metrics of a stack, as the widget calls them."""
-    from . import labyrinth, metrics
+    from . import labyrinth, metrics  # the widget imports this module; only the warm-up runs them
 
     dtype = np.dtype(dtype)
     columns = np.indices((WARM_UP_SIDE, WARM_UP_SIDE))[1]

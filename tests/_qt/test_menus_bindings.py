@@ -20,6 +20,7 @@ import napari_labyrinth._qt.menus
 """
 
 
+@pytest.mark.subprocess
 def test_the_menu_commands_import_without_sip():
     result = subprocess.run(
         [sys.executable, "-c", _WITHOUT_SIP],

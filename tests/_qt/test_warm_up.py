@@ -59,6 +59,7 @@ def _open_widget(viewer):
     return widget
 
 
+@pytest.mark.subprocess
 def test_a_run_waits_for_the_warm_up_and_says_so_then_renders(qtbot, viewer, slow_warm_up):
     commands, release = slow_warm_up
     viewer.add_image(noise((64, 64)), name="cells")
@@ -77,6 +78,7 @@ def test_a_run_waits_for_the_warm_up_and_says_so_then_renders(qtbot, viewer, slo
     assert widget.status.value.startswith("Added")
 
 
+@pytest.mark.subprocess
 def test_a_run_waits_only_for_the_steps_it_needs(qtbot, viewer, slow_warm_up):
     _, release = slow_warm_up
     viewer.add_image(noise((64, 64)), name="cells")
@@ -96,6 +98,7 @@ def test_a_run_waits_only_for_the_steps_it_needs(qtbot, viewer, slow_warm_up):
     assert widget._waiting is None
 
 
+@pytest.mark.subprocess
 def test_a_single_run_starts_once_the_render_is_prepared(qtbot, viewer, slow_warm_up):
     _, release = slow_warm_up
     viewer.add_image(noise((64, 64)), name="cells")
@@ -107,6 +110,7 @@ def test_a_single_run_starts_once_the_render_is_prepared(qtbot, viewer, slow_war
     release(2)
 
 
+@pytest.mark.subprocess
 def test_cancelling_a_run_that_waits_for_the_warm_up_adds_nothing(qtbot, viewer, slow_warm_up):
     _, release = slow_warm_up
     viewer.add_image(noise((64, 64)), name="cells")
@@ -121,6 +125,7 @@ def test_cancelling_a_run_that_waits_for_the_warm_up_adds_nothing(qtbot, viewer,
     assert len(viewer.layers) == 1
 
 
+@pytest.mark.subprocess
 def test_the_warm_up_ends_with_the_viewer(qtbot, make_napari_viewer, slow_warm_up):
     viewer = make_napari_viewer()
     widget = _open_widget(viewer)
@@ -130,6 +135,7 @@ def test_the_warm_up_ends_with_the_viewer(qtbot, make_napari_viewer, slow_warm_u
     qtbot.waitUntil(lambda: not _alive(pid), timeout=10_000)
 
 
+@pytest.mark.subprocess
 def test_one_warm_up_a_session_and_none_when_disabled(qtbot, viewer, slow_warm_up, monkeypatch):
     commands, release = slow_warm_up
     _open_widget(viewer)

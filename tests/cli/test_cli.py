@@ -551,6 +551,7 @@ def installed_script() -> str | None:
     return shutil.which("napari-labyrinth", path=str(here)) or shutil.which("napari-labyrinth")
 
 
+@pytest.mark.subprocess
 @pytest.mark.skipif(installed_script() is None, reason="console script not installed")
 def test_installed_console_script(tmp_path):
     script = installed_script()

@@ -104,6 +104,7 @@ def _errors(capsys):
 # -- memory bombs -------------------------------------------------------------------------------------
 
 
+@pytest.mark.subprocess
 def test_a_declared_huge_tiff_is_refused_in_one_line_within_a_memory_ceiling(tmp_path):
     bomb = declared_huge_tiff(tmp_path / "bomb.tif")
     assert bomb.stat().st_size < 100_000
@@ -315,6 +316,7 @@ def _start_slow_write(tmp_path, output):
     return child
 
 
+@pytest.mark.subprocess
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 @pytest.mark.parametrize("suffix", [".tif", ".zarr"])
 def test_sigint_leaves_no_temporary_and_sigkill_leftovers_are_removed_next_time(tmp_path, suffix):
@@ -340,6 +342,7 @@ def test_sigint_leaves_no_temporary_and_sigkill_leftovers_are_removed_next_time(
     assert not left.exists() and not list(tmp_path.glob(f".{output.name}.*"))
 
 
+@pytest.mark.subprocess
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 @pytest.mark.parametrize("suffix", [".tif", ".zarr"])
 def test_sigterm_is_handled_as_ctrl_c_and_leaves_no_temporary(tmp_path, suffix):
@@ -364,6 +367,7 @@ def test_sigterm_and_sigint_handlers_are_restored_after_a_command(tmp_path):
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
+@pytest.mark.subprocess
 @pytest.mark.parametrize("command", ["render", "demo"])
 def test_a_closed_stdout_stops_no_batch_and_prints_no_traceback(tmp_path, command):
     # `| head -c 0`: the first output's path met a broken pipe, a traceback, and exit 1

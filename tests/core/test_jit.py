@@ -61,6 +61,7 @@ def test_is_compiled_says_whether_a_call_would_compile(tmp_path):
     assert not _jit.is_compiled(kernel, 4.5)  # another signature
 
 
+@pytest.mark.subprocess
 def test_is_compiled_loads_a_kernel_from_the_disk_cache(tmp_path):
     script = (
         f"import sys; sys.path.insert(0, {str(tmp_path)!r})\n"

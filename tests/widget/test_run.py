@@ -33,6 +33,7 @@ data = pytest.importorskip("skimage.data")
 # -- the package stays Qt-free -----------------------------------------------------------------
 
 
+@pytest.mark.subprocess
 def test_the_widget_package_and_a_run_import_neither_napari_nor_qt():
     code = (
         "import importlib, pkgutil, sys, numpy as np;"

@@ -10,7 +10,7 @@ windows in the few blocks of values that reach them (exact: the counts show
 whether each rank lies in its window); else a first, vectorised pass over
 blocks of values (their least and greatest) shows which few blocks hold
 them, and only those are counted.
-``lazy.py`` takes the counting route over the blocks of a dask array.
+``lazy.streamed_percentiles`` takes the counting route over the blocks of a dask array.
 """
 
 from __future__ import annotations
@@ -121,8 +121,9 @@ def counting_pays(values: np.ndarray) -> bool:
     """
     if values.size >= COMPILE_FROM_VALUES:
         return True
+    # numba is imported on first use only, not with the package
     from ._jit import is_compiled
-    from ._tone_loops import sampled_tail_values  # numba is imported on first use only
+    from ._tone_loops import sampled_tail_values
 
     flat = values.reshape(-1)
     ranks = np.zeros(2, np.int64)
