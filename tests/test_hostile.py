@@ -158,7 +158,7 @@ NAMED_ERRORS += [
 ]
 
 
-@pytest.mark.parametrize("call,error,match", NAMED_ERRORS, ids=lambda v: str(v)[:30])
+@pytest.mark.parametrize("call,error,match", NAMED_ERRORS, ids=[m[:40] for *_, m in NAMED_ERRORS])
 def test_bad_input_gets_an_error_that_names_it(call, error, match):
     with pytest.raises(error, match=match):
         call()
