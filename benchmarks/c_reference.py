@@ -34,7 +34,7 @@ class CReference:
 
     def run_pass(self, tones, parameters, *, seed=0, plane_index=0, pass_index=0, counts=None,
                  has_nonfinite=None):  # fmt: skip
-        from napari_labyrinth._engine import _kernel_arguments, _kernel_options
+        from napari_labyrinth._engine.passes import _kernel_arguments, _kernel_options
 
         assert tones.dtype == np.float32 and tones.flags.c_contiguous and tones.ndim == 2
         if counts is None:

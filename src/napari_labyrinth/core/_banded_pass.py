@@ -13,7 +13,7 @@ The results are those of ``_tone_loops.integer_tones``, then
 ``labyrinth_pass`` over the whole plane, then ``_tone_loops.write_back``
 (``rounded_tones`` for uint8 on the scale (0, 255)), bit for bit: the same
 kernel runs over the same plane in the same order, one band of rows after
-the other (``tests/test_engine.py`` checks it for every scan but the
+the other (``tests/_engine/test_render_loop.py`` checks it for every scan but the
 checkerboard, which visits the plane four times and is not banded).
 """
 

@@ -18,7 +18,7 @@
 
 Each loop does the arithmetic of its numpy counterpart in the same precision
 and order (float32 for 8- and 16-bit values, float64 for 32-bit ones), so the
-results are bit for bit the same; ``tests/test_engine.py`` checks it.
+results are bit for bit the same; ``tests/_engine/test_render_loop.py`` checks it.
 """
 
 import math
