@@ -89,8 +89,11 @@ from napari_labyrinth import PRESETS  # noqa: E402
 from napari_labyrinth._engine import (  # noqa: E402
     exact_order_refusal,
     exact_order_tiles,
+    new_changes,
     run_pass,
 )
+from napari_labyrinth._engine.passes import pass_kernel_for, pass_parameters  # noqa: E402
+from napari_labyrinth.core._pass_arguments import PassRegion, PlanePass  # noqa: E402
 from napari_labyrinth.core.parameters import PARAMETERS, make_parameters  # noqa: E402
 
 #: Every option the tiles reproduce: the choices of the parameter table but
@@ -158,18 +161,15 @@ def test_tiles_equal_the_raster_scan_on_odd_sizes_and_non_finite_planes(shape, h
 
 def _tile_order_results(plane, parameters, rows, diagonals, order):
     """The plane after running its tiles one after the other in ``order``."""
-    from napari_labyrinth._engine.passes import _kernel_arguments, _kernel_options, _pass_kernel
-
-    labyrinth_pass = _pass_kernel(parameters)
+    kernel_parameters = pass_parameters(parameters)
+    labyrinth_pass = pass_kernel_for(kernel_parameters)
     work = plane.copy()
     counts = np.zeros(6, np.int64)
-    has_nonfinite = not np.isfinite(plane).all()
+    plane_pass = PlanePass(np.uint64(3), 1, 2, not np.isfinite(plane).all())
     for band, j in order:
-        labyrinth_pass(
-            work, *_kernel_arguments(parameters), np.uint64(3), 1, 2,
-            *_kernel_options(parameters), has_nonfinite, counts, -1, band * rows,
-            min(plane.shape[0], (band + 1) * rows), j * diagonals, (j + 1) * diagonals,
-        )  # fmt: skip
+        row_stop = min(plane.shape[0], (band + 1) * rows)
+        tile = PassRegion(-1, band * rows, row_stop, j * diagonals, (j + 1) * diagonals)
+        labyrinth_pass(work, kernel_parameters, plane_pass, tile, counts, new_changes(0))
     return work, counts
 
 
@@ -215,18 +215,18 @@ def test_rectangles_in_wave_order_would_not_equal_the_raster_scan():
     serial = plane.copy()
     run_pass(serial, parameters, seed=3, plane_index=1, pass_index=2)
     rectangles = plane.copy()
-    from napari_labyrinth._engine.passes import _kernel_arguments, _kernel_options, _pass_kernel
-
-    labyrinth_pass = _pass_kernel(parameters)
+    kernel_parameters = pass_parameters(parameters)
+    labyrinth_pass = pass_kernel_for(kernel_parameters)
+    plane_pass = PlanePass(np.uint64(3), 1, 2, False)
     for wave in range(7):
         for band in range(4):
             j = wave - band
             if 0 <= j < 4:  # rows [6 band, 6 band + 6), columns [6 j, 6 j + 6)
                 for y in range(6 * band, 6 * band + 6):
+                    rectangle_row = PassRegion(-1, y, y + 1, 6 * j + y, 6 * j + 6 + y)
                     labyrinth_pass(
-                        rectangles, *_kernel_arguments(parameters), np.uint64(3), 1, 2,
-                        *_kernel_options(parameters), False, np.zeros(6, np.int64), -1, y,
-                        y + 1, 6 * j + y, 6 * j + 6 + y,
+                        rectangles, kernel_parameters, plane_pass, rectangle_row,
+                        np.zeros(6, np.int64), new_changes(0),
                     )  # fmt: skip
     assert not np.array_equal(rectangles, serial)
 
@@ -255,7 +255,7 @@ def test_a_large_plane_uses_the_tiles_by_default_with_the_same_result(monkeypatc
     calls = []
     real = passes.run_exact_order
     monkeypatch.setattr(
-        passes, "run_exact_order", lambda *args: calls.append(args[6]) or real(*args)
+        passes, "run_exact_order", lambda *args: calls.append(args[8]) or real(*args)
     )
     image = (textured_plane((300, 260), seed=4) * 200).astype(np.uint16)
     one = labyrinth(image, passes=2, workers=1, return_diagnostics=True)
@@ -276,7 +276,7 @@ def test_a_mean_first_pass_takes_bands_twice_as_tall_with_the_same_result(monkey
     rows = []
     real = passes.run_exact_order
     monkeypatch.setattr(
-        passes, "run_exact_order", lambda *args: rows.append(args[4]) or real(*args)
+        passes, "run_exact_order", lambda *args: rows.append(args[6]) or real(*args)
     )
     image = (textured_plane((600, 300), seed=5) * 200).astype(np.uint16)
     for preset in ("paper", "labyrinth"):
@@ -316,7 +316,7 @@ def test_workers_left_over_by_the_planes_tile_each_plane(monkeypatch):
     calls = []
     real = passes.run_exact_order
     monkeypatch.setattr(
-        passes, "run_exact_order", lambda *args: calls.append(args[6]) or real(*args)
+        passes, "run_exact_order", lambda *args: calls.append(args[8]) or real(*args)
     )
     plane = (textured_plane((280, 250), seed=6) * 200).astype(np.uint16)
     stack = np.stack([plane, plane[::-1]])
@@ -333,7 +333,7 @@ def test_the_default_tiles_take_no_more_threads_than_idle_cores(monkeypatch):
     calls = []
     real = passes.run_exact_order
     monkeypatch.setattr(
-        passes, "run_exact_order", lambda *args: calls.append(args[6]) or real(*args)
+        passes, "run_exact_order", lambda *args: calls.append(args[8]) or real(*args)
     )
     plane = textured_plane((300, 260), seed=5)
     parameters = make_parameters(**PRESETS["paper"])

@@ -5,31 +5,27 @@ tones, on one thread, in the exact-order tiles (``tiles``) or in the
 checkerboard's bands; :func:`banded_pass` runs ``core._banded_pass`` over an
 integer plane, tones made and values written band of rows by band of rows.
 Both take the kernel variant of the parameters' condition order and
-``include_centre``, and pass the parameters as the kernel reads them.
+``include_centre``, and the parameters as the kernels read them
+(:func:`pass_parameters`).
 """
 
 from __future__ import annotations
 
 import functools
+import itertools
 import logging
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
 
 import numpy as np
 
+from ..core._pass_arguments import WHOLE_PLANE, PassParameters, PassRegion, PlanePass
 from ..core.codes import DIAGNOSTIC_FIELDS, OPTION_CODES
 from ..core.parameters import LabyrinthParameters
-from ..core.tone_scale import banded_scale_arguments
+from ..core.tone_scale import integer_scale
 from .changes import empty_copies, gather_changes, new_changes
 from .cores import idle_cores
 from .counts import add_padded_counts, padded_counts
-from .tiles import (
-    MIN_PARALLEL_PIXELS,
-    WHOLE_PLANE,
-    default_tile,
-    exact_order_refusal,
-    run_exact_order,
-)
+from .tiles import MIN_PARALLEL_PIXELS, default_tile, exact_order_refusal, run_exact_order
 
 _LOG = logging.getLogger("napari_labyrinth")
 
@@ -66,18 +62,18 @@ def run_pass(
     more threads than ``cores.idle_cores``: on a core shared with a busy task,
     a tile thread would hold up the others.
     """
-    labyrinth_pass = _pass_kernel(parameters)
+    kernel_parameters = pass_parameters(parameters)
+    labyrinth_pass = pass_kernel_for(kernel_parameters)
     if counts is None:
         counts = np.zeros(len(DIAGNOSTIC_FIELDS), dtype=np.int64)
     if changes is None:  # room for none: every call compiles to the same kernel
         changes = new_changes(0)
     if has_nonfinite is None:
         has_nonfinite = not np.isfinite(tones).all()
-    arguments = (tones, *_kernel_arguments(parameters), np.uint64(seed), plane_index, pass_index)
-    options = (*_kernel_options(parameters), has_nonfinite)
+    plane_pass = PlanePass(np.uint64(seed), int(plane_index), int(pass_index), bool(has_nonfinite))
     if parameters.scan == "checkerboard":
         _checkerboard_bands(
-            labyrinth_pass, arguments, options, counts, tones.shape[0], workers, changes
+            labyrinth_pass, tones, kernel_parameters, plane_pass, counts, changes, workers
         )
         return counts
     if workers > 1:
@@ -90,12 +86,11 @@ def run_pass(
                 workers = min(workers, idle_cores())
             if workers > 1:
                 run_exact_order(
-                    labyrinth_pass, arguments, options, counts, rows, diagonals, workers, changes
-                )
+                    labyrinth_pass, tones, kernel_parameters, plane_pass, counts, changes, rows,
+                    diagonals, workers,
+                )  # fmt: skip
                 return counts
-    # every call gives every argument: one compiled kernel serves all of them, and
-    # numba's dispatcher takes its fast path (an omitted argument costs ~90 µs a call)
-    labyrinth_pass(*arguments, *options, counts, -1, 0, -1, 0, -1, changes, *WHOLE_PLANE)
+    labyrinth_pass(tones, kernel_parameters, plane_pass, WHOLE_PLANE, counts, changes)
     return counts
 
 
@@ -106,95 +101,72 @@ def banded_pass(
     made in the first pass, and the values written into ``target`` unless it is None."""
     from ..core._banded_pass import band_rows, banded_kernel  # numba is imported on first use only
 
-    banded_pass = banded_kernel(*_variant_options(parameters))
+    kernel_parameters = pass_parameters(parameters)
+    kernel = banded_kernel(kernel_parameters.condition_order, kernel_parameters.include_centre)
     write_out = target is not None
     if not write_out:  # never written then, but typed as written: numba refuses a read-only
         target = np.empty((0, 0), values.dtype)  # array there (``values`` may be one)
-    banded_pass(
-        values,
-        target,
-        work,
-        band_rows(values.shape[1]),
-        pass_index == 0,
-        write_out,
-        *banded_scale_arguments(scale, values.dtype),
-        *_kernel_arguments(parameters),
-        np.uint64(seed),
-        plane_index,
-        pass_index,
-        *_kernel_options(parameters),
-        counts,
-        changes,
-    )
+    plane_pass = PlanePass(np.uint64(seed), int(plane_index), int(pass_index), False)
+    kernel(
+        values, target, work, band_rows(values.shape[1]), pass_index == 0, write_out,
+        integer_scale(scale, values.dtype), kernel_parameters, plane_pass, counts, changes,
+    )  # fmt: skip
 
 
 def _checkerboard_bands(
-    labyrinth_pass, arguments, options, counts, height, workers, changes
+    labyrinth_pass, tones, kernel_parameters, plane_pass, counts, changes, workers
 ) -> None:
     """The four colours in turn, the rows of each split among ``workers`` threads."""
+    height = tones.shape[0]
     bands = np.linspace(0, height, min(workers, max(1, height // 2)) + 1).astype(int)
     band_counts = padded_counts(len(bands) - 1)
     band_changes = empty_copies(changes, len(bands) - 1)
     for colour in range(4):  # the pixels of one colour are independent of each other
         if len(bands) == 2:
             labyrinth_pass(
-                *arguments, *options, band_counts[0], colour, 0, height, 0, -1, band_changes[0],
-                *WHOLE_PLANE,
+                tones, kernel_parameters, plane_pass, PassRegion(colour, 0, height),
+                band_counts[0], band_changes[0],
             )  # fmt: skip
             continue
         with ThreadPoolExecutor(len(bands) - 1) as pool:
-            for future in [
-                pool.submit(
-                    labyrinth_pass,
-                    *arguments,
-                    *options,
-                    band_counts[k],
-                    colour,
-                    start,
-                    stop,
-                    0,
-                    -1,
-                    band_changes[k],
-                    *WHOLE_PLANE,
-                )  # fmt: skip
-                for k, (start, stop) in enumerate(zip(bands[:-1], bands[1:]))
-            ]:
+            futures = []
+            for k, (start, stop) in enumerate(itertools.pairwise(bands)):
+                region = PassRegion(colour, int(start), int(stop))
+                futures.append(
+                    pool.submit(
+                        labyrinth_pass,
+                        tones,
+                        kernel_parameters,
+                        plane_pass,
+                        region,
+                        band_counts[k],
+                        band_changes[k],
+                    )
+                )
+            for future in futures:
                 future.result()
     add_padded_counts(counts, band_counts)
     gather_changes(changes, band_changes)
 
 
 @functools.lru_cache(maxsize=64)
-def _kernel_arguments(parameters: LabyrinthParameters) -> tuple[Any, ...]:
-    """Thresholds, range limits, T_inf, T_sup and max tries as the kernel takes them."""
-    range_bounds = np.array(parameters.tone_ranges[1:-1], dtype=np.float64)
-    tone_low = np.array([low for low, _ in parameters.tones], dtype=np.float64)
-    tone_high = np.array([high for _, high in parameters.tones], dtype=np.float64)
-    return (
-        parameters.mean_threshold,
-        parameters.variance_threshold,
-        range_bounds,
-        tone_low,
-        tone_high,
-        parameters.max_tries,
+def pass_parameters(parameters: LabyrinthParameters) -> PassParameters:
+    """``parameters`` as the kernels read them: numbers, float64 arrays and option codes."""
+    return PassParameters(
+        mean_threshold=float(parameters.mean_threshold),
+        variance_threshold=float(parameters.variance_threshold),
+        range_bounds=np.array(parameters.tone_ranges[1:-1], dtype=np.float64),
+        tone_low=np.array([low for low, _ in parameters.tones], dtype=np.float64),
+        tone_high=np.array([high for _, high in parameters.tones], dtype=np.float64),
+        max_tries=int(parameters.max_tries),
+        include_centre=bool(parameters.include_centre),
+        **{name: codes[getattr(parameters, name)] for name, codes in OPTION_CODES.items()},
     )
 
 
-def _variant_options(parameters: LabyrinthParameters) -> tuple[int, bool]:
-    """The options that select the kernel's compiled variant: ``condition_order``'s code
-    and ``include_centre`` (``core._kernel.pass_kernel``)."""
-    return OPTION_CODES["condition_order"][parameters.condition_order], parameters.include_centre
-
-
-def _pass_kernel(parameters: LabyrinthParameters):
-    """The numba kernel of one pass (``labyrinth_pass``) compiled for ``parameters``."""
+def pass_kernel_for(kernel_parameters: PassParameters):
+    """The numba kernel of one pass (``labyrinth_pass``), the variant of ``kernel_parameters``'
+    condition order and ``include_centre`` (``core._kernel.pass_kernel``)."""
     from ..core._kernel import pass_kernel  # numba is imported on first use only
 
-    return pass_kernel(*_variant_options(parameters))
-
-
-@functools.lru_cache(maxsize=64)
-def _kernel_options(parameters: LabyrinthParameters) -> tuple[Any, ...]:
-    """The options' codes in the order of ``codes.OPTION_CODES``, then ``include_centre``."""
-    codes = tuple(codes[getattr(parameters, name)] for name, codes in OPTION_CODES.items())
-    return (*codes, parameters.include_centre)
+    return pass_kernel(kernel_parameters.condition_order, kernel_parameters.include_centre)

@@ -17,12 +17,10 @@ import threading
 import numpy as np
 
 from .._threads import start_helper
+from ..core._pass_arguments import PassParameters, PassRegion, PlanePass
 from ..core.parameters import LabyrinthParameters
-from .changes import empty_copies, gather_changes, new_changes
+from .changes import empty_copies, gather_changes
 from .counts import add_padded_counts, padded_counts
-
-#: ``labyrinth_pass``'s ``row_offset`` and ``plane_height`` for a plane held whole.
-WHOLE_PLANE = (0, -1)
 
 #: Planes with fewer pixels run on one thread: the tiles would cost more than they gain.
 MIN_PARALLEL_PIXELS = 256 * 256
@@ -91,9 +89,23 @@ def exact_order_tiles(shape: tuple[int, int], rows: int, diagonals: int) -> list
 
 
 def run_exact_order(
-    labyrinth_pass, arguments, options, counts, rows, diagonals, workers, changes=None
+    labyrinth_pass,
+    tones: np.ndarray,
+    parameters: PassParameters,
+    plane_pass: PlanePass,
+    counts: np.ndarray,
+    changes: np.ndarray,
+    rows: int,
+    diagonals: int,
+    workers: int,
 ) -> None:
     """Run the tiles of ``exact_order_tiles`` on threads, each as soon as it may run.
+
+    ``labyrinth_pass`` (a variant of ``core._kernel.labyrinth_pass``) runs over
+    ``tones`` with ``parameters`` and ``plane_pass`` in tiles of ``rows`` rows
+    and ``diagonals`` diagonals, on at most ``workers`` threads (the caller's
+    among them), adding to ``counts`` and ``changes`` as one call over the
+    whole plane would.
 
     The tiles that may run wait in a queue, the upper band first; a free
     thread takes the next one, runs it (the kernel holds no GIL), then queues
@@ -102,7 +114,6 @@ def run_exact_order(
     spins), and a thread that the system holds back holds up only the tiles
     that need its own: the others take the rest of the plane meanwhile.
     """
-    tones = arguments[0]
     height = tones.shape[0]
     tiles = exact_order_tiles(tones.shape, rows, diagonals)
     bands = len(tiles)
@@ -114,8 +125,6 @@ def run_exact_order(
     remaining = [sum(map(len, tiles))]
     changed = threading.Condition()
     band_counts = padded_counts(workers)
-    if changes is None:
-        changes = new_changes(0)
     worker_changes = empty_copies(changes, workers)  # each thread notes its own
     failed: list[BaseException] = []
 
@@ -130,7 +139,6 @@ def run_exact_order(
             return 1
         return 0
 
-    head = (*arguments, *options)
     sleeping = [0]  # threads waiting on ``changed``: woken only if there is work for them
 
     def work(worker):
@@ -156,10 +164,9 @@ def run_exact_order(
                         return
                     band = heapq.heappop(ready)
                     j = tiles[band][position[band]]
-                labyrinth_pass(
-                    *head, own_counts, -1, band * rows, min(height, (band + 1) * rows),
-                    j * diagonals, (j + 1) * diagonals, own_changes, *WHOLE_PLANE,
-                )  # fmt: skip
+                row_stop = min(height, (band + 1) * rows)
+                tile = PassRegion(-1, band * rows, row_stop, j * diagonals, (j + 1) * diagonals)
+                labyrinth_pass(tones, parameters, plane_pass, tile, own_counts, own_changes)
         except BaseException as error:  # noqa: BLE001 - raised in the caller's thread
             with changed:
                 failed.append(error)
