@@ -87,7 +87,7 @@ def tiled_pass(tones, parameters, workers, tile):
     from napari_labyrinth._engine import new_changes
     from napari_labyrinth._engine.passes import pass_kernel_for, pass_parameters
     from napari_labyrinth._engine.tiles import run_exact_order
-    from napari_labyrinth.core._pass_arguments import PlanePass
+    from napari_labyrinth.core._kernel_arguments import PlanePass
 
     kernel_parameters = pass_parameters(parameters)
     labyrinth_pass = pass_kernel_for(kernel_parameters)
@@ -245,7 +245,7 @@ def tile_times(tones, parameters, tile):
     """CPU seconds of every tile, run one after the other on this thread (band by band)."""
     from napari_labyrinth._engine import exact_order_tiles, new_changes
     from napari_labyrinth._engine.passes import pass_kernel_for, pass_parameters
-    from napari_labyrinth.core._pass_arguments import PassRegion, PlanePass
+    from napari_labyrinth.core._kernel_arguments import PassRegion, PlanePass
 
     kernel_parameters = pass_parameters(parameters)
     labyrinth_pass = pass_kernel_for(kernel_parameters)

@@ -93,7 +93,7 @@ from napari_labyrinth._engine import (  # noqa: E402
     run_pass,
 )
 from napari_labyrinth._engine.passes import pass_kernel_for, pass_parameters  # noqa: E402
-from napari_labyrinth.core._pass_arguments import PassRegion, PlanePass  # noqa: E402
+from napari_labyrinth.core._kernel_arguments import PassRegion, PlanePass  # noqa: E402
 from napari_labyrinth.core.parameters import PARAMETERS, make_parameters  # noqa: E402
 
 #: Every option the tiles reproduce: the choices of the parameter table but

@@ -1,4 +1,4 @@
-"""The diagnostics of a render: counts per pass and plane, and per thread on cache lines of their own.
+"""The diagnostics of a render: counts per pass and plane, per thread on cache lines of their own.
 
 A pass increments one int64 count per field of ``codes.DIAGNOSTIC_FIELDS``
 (pixels kept by Eq. 2, left by Eq. 4, pushed, redrawn, out of tries, skipped).

@@ -18,7 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from ..core._pass_arguments import WHOLE_PLANE, PassParameters, PassRegion, PlanePass
+from ..core._kernel_arguments import WHOLE_PLANE, PassParameters, PassRegion, PlanePass
 from ..core.codes import DIAGNOSTIC_FIELDS, OPTION_CODES
 from ..core.parameters import LabyrinthParameters
 from ..core.tone_scale import integer_scale

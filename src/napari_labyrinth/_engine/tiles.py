@@ -17,7 +17,7 @@ import threading
 import numpy as np
 
 from .._threads import start_helper
-from ..core._pass_arguments import PassParameters, PassRegion, PlanePass
+from ..core._kernel_arguments import WHOLE_PLANE, PassParameters, PassRegion, PlanePass
 from ..core.parameters import LabyrinthParameters
 from .changes import empty_copies, gather_changes
 from .counts import add_padded_counts, padded_counts
@@ -112,9 +112,14 @@ def run_exact_order(
     the tiles it freed: the next of its band and the waiting one of the band
     below. A thread with nothing to take sleeps on a condition variable (never
     spins), and a thread that the system holds back holds up only the tiles
-    that need its own: the others take the rest of the plane meanwhile.
+    that need its own: the others take the rest of the plane meanwhile. Every
+    tile calls the kernel's compiled code for the types of its arguments
+    (``_jit.compiled_for``): numba's dispatcher would type its NamedTuples
+    again at every call, a few µs a tile.
     """
-    height = tones.shape[0]
+    from ..core._jit import compiled_for  # numba is imported on first use only
+
+    height, rows, diagonals = tones.shape[0], int(rows), int(diagonals)
     tiles = exact_order_tiles(tones.shape, rows, diagonals)
     bands = len(tiles)
     workers = min(workers, bands)
@@ -127,6 +132,10 @@ def run_exact_order(
     band_counts = padded_counts(workers)
     worker_changes = empty_copies(changes, workers)  # each thread notes its own
     failed: list[BaseException] = []
+    kernel = compiled_for(
+        labyrinth_pass, tones, parameters, plane_pass, WHOLE_PLANE, band_counts[0],
+        worker_changes[0],
+    )  # fmt: skip
 
     def queue_if_ready(band):
         """Queue ``band`` if its next tile may run (called holding ``changed``); 1 if queued."""
@@ -166,7 +175,7 @@ def run_exact_order(
                     j = tiles[band][position[band]]
                 row_stop = min(height, (band + 1) * rows)
                 tile = PassRegion(-1, band * rows, row_stop, j * diagonals, (j + 1) * diagonals)
-                labyrinth_pass(tones, parameters, plane_pass, tile, own_counts, own_changes)
+                kernel(tones, parameters, plane_pass, tile, own_counts, own_changes)
         except BaseException as error:  # noqa: BLE001 - raised in the caller's thread
             with changed:
                 failed.append(error)

@@ -24,7 +24,7 @@ from numba import njit
 
 from ._jit import cached_njit
 from ._kernel import PASS_VARIANTS, variant_index
-from ._pass_arguments import PassRegion
+from ._kernel_arguments import PassRegion  # its file, the arguments', is in the cache stamp
 from ._tone_loops import _tone
 from .codes import WRAP
 
@@ -71,7 +71,7 @@ def _banded_pass_variant(variant):
             Rows of a band (``band_rows(W)``; a ring holds ``rows + 2``).
         tones_in, write_out : bool
             Make the tones; write the values.
-        scale : tone_scale.IntegerScale
+        scale : IntegerScale
             The tone scale of ``values``' dtype. With ``paper_uint8`` (uint8 on
             the scale (0, 255)) a tone is its value: in a whole plane every one
             is rounded back, nothing compared; in a ring the values are copied

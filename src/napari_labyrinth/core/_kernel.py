@@ -21,6 +21,9 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from ._jit import cached_njit
+
+# the kernels' arguments: imported here, their file is part of the kernels' cache stamp
+from ._kernel_arguments import PassParameters, PassRegion, PlanePass  # noqa: F401
 from .codes import (
     INSIDE,
     KEEP,
@@ -388,15 +391,15 @@ def _labyrinth_pass_variant(variance_decides_first, centre_counts):
         ----------
         plane : (H, W) float32 C-contiguous array
             Tones on the 0-255 scale; non-finite values never change and never count.
-        parameters : _pass_arguments.PassParameters
+        parameters : _kernel_arguments.PassParameters
             t, V, the tone ranges, the draws before giving up and the options'
             codes; its ``condition_order`` and ``include_centre`` are the
             variant's (:func:`pass_kernel`).
-        plane_pass : _pass_arguments.PlanePass
+        plane_pass : _kernel_arguments.PlanePass
             The random stream (``seed``, ``plane_index``, ``pass_index``: see
             ``stream_key``) and ``has_nonfinite`` (False promises an all-finite
             plane: interior pixels skip the checks).
-        region : _pass_arguments.PassRegion
+        region : _kernel_arguments.PassRegion
             The pixels this call visits: a checkerboard colour, a band of rows, a
             range of diagonals ``x + y`` (a parallelogram tile of the exact-order
             schedule of ``_engine``), and the rows of the plane that ``plane``

@@ -29,6 +29,9 @@ from numba import njit
 from ._jit import cached_njit
 from ._kernel import prefetch_flat
 
+# the loops' arguments: imported here, their file is part of the loops' cache stamp
+from ._kernel_arguments import IntegerScale  # noqa: F401
+
 
 @cached_njit(nogil=True)
 def count_values(flat, offset, counts):
@@ -489,7 +492,7 @@ def _tone(value, low, gain, low32, gain32, wide):
 @cached_njit(nogil=True)
 def integer_tones(values, tones, scale):
     """Fill the float32 plane ``tones`` with the tones of the integer plane ``values``
-    on ``scale`` (``tone_scale.IntegerScale``)."""
+    on ``scale`` (an ``IntegerScale``)."""
     height, width = values.shape
     low, gain, low32, gain32, wide = scale.low, scale.gain, scale.low32, scale.gain32, scale.wide
     for y in range(height):
@@ -502,7 +505,7 @@ def write_back(target, source, tones, scale):
     """Where a tone of ``tones`` differs from that of ``source``, write its value to ``target``.
 
     The value is ``rint(tone / gain + low)`` clipped to ``[lowest, highest]``
-    (``ToneScale.from_tones``; the fields of ``scale``, a ``tone_scale.IntegerScale``);
+    (``ToneScale.from_tones``; the fields of ``scale``, an ``IntegerScale``);
     ``target`` holds the source values elsewhere.
     """
     height, width = source.shape

@@ -6,10 +6,11 @@ import dataclasses
 import math
 import numbers
 from collections.abc import Mapping
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
+from ._kernel_arguments import IntegerScale
 from .parameters import as_float, scalar
 from .percentiles import counting_pays, integer_percentiles
 
@@ -251,38 +252,8 @@ def write_listed_values(
     write_back_at(target, values, tones, indices, integer_scale(scale, values.dtype))
 
 
-class IntegerScale(NamedTuple):
-    """A tone scale as the numba loops over integer planes read it (``_tone_loops``,
-    ``_banded_pass``), for one integer dtype.
-
-    Attributes
-    ----------
-    paper_uint8 : bool
-        uint8 values on the scale (0, 255): each value is its own tone.
-    low, gain : float
-        ``tone = (value - low) * gain`` in float64, and ``value = rint(tone /
-        gain + low)`` back (``ToneScale.to_tones``, ``ToneScale.from_tones``).
-    low32, gain32 : numpy.float32
-        The same map in float32 (0 and 1 where float32 does not hold it).
-    wide : bool
-        Whether the tones are computed in float64: 32-bit values, or a map
-        float32 does not hold (as ``ToneScale.to_tones``).
-    lowest, highest : float
-        The dtype's range: values written back are clipped to it.
-    """
-
-    paper_uint8: bool
-    low: float
-    gain: float
-    low32: np.float32
-    gain32: np.float32
-    wide: bool
-    lowest: float
-    highest: float
-
-
 def integer_scale(scale: ToneScale, dtype: np.dtype) -> IntegerScale:
-    """``scale`` as the numba loops take it for integers of ``dtype``."""
+    """``scale`` as the numba loops over integer planes take it, for integers of ``dtype``."""
     gain = scale._gain
     wide = np.dtype(dtype).itemsize > 2 or not scale._fits_float32
     if scale._fits_float32:

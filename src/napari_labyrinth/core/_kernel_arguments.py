@@ -1,12 +1,18 @@
-"""The arguments of the pass kernels, grouped: NamedTuples that numba takes as they are.
+"""The arguments of the numba kernels, grouped: NamedTuples that numba takes as they are.
 
 ``_kernel.labyrinth_pass`` and ``_banded_pass.banded_pass`` take a plane, a
-few of these and the arrays they write. numba types a NamedTuple as a tuple
-of its fields' types (a float64, an int64, a boolean, an array: each as one
-of the kernel's own arguments would be) and reads a field at no cost, so the
-kernels' arithmetic is that of separate arguments. Build each field with the
-type its annotation says: a field of another type (an int where a float is
-due) would compile the kernels again for it.
+few of these and the arrays they write; the loops of ``_tone_loops`` take an
+:class:`IntegerScale`. numba types a NamedTuple as a tuple of its fields'
+types (a float64, an int64, a boolean, an array: each as one of the kernel's
+own arguments would be) and reads a field at no cost, so the kernels'
+arithmetic is that of separate arguments. Build each field with the type its
+annotation says: a field of another type (an int where a float is due) would
+compile the kernels again for it.
+
+numba's disk cache knows a NamedTuple by its class and its fields' types, not
+by its fields' names: the kernels that take these tuples import them at the
+top of their module, so that this file is part of their cache stamp
+(``_jit.cached_njit``) and a field moved or renamed compiles them again.
 
 This module imports no numba: the engine builds the tuples before any kernel
 is compiled.
@@ -101,3 +107,33 @@ class PassRegion(NamedTuple):
 
 #: Every pixel of a plane held whole, in the order of the scan.
 WHOLE_PLANE = PassRegion()
+
+
+class IntegerScale(NamedTuple):
+    """A tone scale as the numba loops over integer planes read it (``_tone_loops``,
+    ``_banded_pass``), for one integer dtype (``tone_scale.integer_scale``).
+
+    Attributes
+    ----------
+    paper_uint8 : bool
+        uint8 values on the scale (0, 255): each value is its own tone.
+    low, gain : float
+        ``tone = (value - low) * gain`` in float64, and ``value = rint(tone /
+        gain + low)`` back (``ToneScale.to_tones``, ``ToneScale.from_tones``).
+    low32, gain32 : numpy.float32
+        The same map in float32 (0 and 1 where float32 does not hold it).
+    wide : bool
+        Whether the tones are computed in float64: 32-bit values, or a map
+        float32 does not hold (as ``ToneScale.to_tones``).
+    lowest, highest : float
+        The dtype's range: values written back are clipped to it.
+    """
+
+    paper_uint8: bool
+    low: float
+    gain: float
+    low32: np.float32
+    gain32: np.float32
+    wide: bool
+    lowest: float
+    highest: float
