@@ -246,13 +246,12 @@ def tones_and_copy(values, scale):
     tones of every row (band by band into a ring, as the banded pass does) and copy the
     values into a new array (the result, before the few changes are written)."""
     from napari_labyrinth.core._banded_pass import band_rows
-    from napari_labyrinth.core.tone_scale import banded_scale_arguments
+    from napari_labyrinth.core.tone_scale import integer_scale
 
     rows = band_rows(values.shape[1])
     ring = np.empty((rows + 2, values.shape[1]), np.float32)
     target = np.empty_like(values)
-    scale_arguments = banded_scale_arguments(scale, values.dtype)[1:6]
-    _banded_tones_and_copy()(values, ring, target, rows, *scale_arguments)
+    _banded_tones_and_copy()(values, ring, target, rows, integer_scale(scale, values.dtype))
     return target
 
 
@@ -264,12 +263,11 @@ def _banded_tones_and_copy():
     from napari_labyrinth.core._banded_pass import _make_tones_and_copy
 
     @njit(nogil=True)
-    def bands(values, ring, target, rows, low, gain, low32, gain32, wide):
+    def bands(values, ring, target, rows, scale):
         height = values.shape[0]
         for start in range(0, height, rows):
             stop = min(height, start + rows)
-            _make_tones_and_copy(values, ring, target, start, stop, start, low, gain, low32,
-                                 gain32, wide)  # fmt: skip
+            _make_tones_and_copy(values, ring, target, start, stop, start, scale)
 
     return bands
 

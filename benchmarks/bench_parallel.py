@@ -19,7 +19,7 @@ Sections (all by default; ``--sections`` picks some):
   before each section are printed.
 - ``tiles``: tile-size sensitivity, 2 threads, rows x diagonals.
 - ``model``: the time of every tile measured on one thread, then the
-  schedule of ``_engine._exact_order`` simulated on 1 to 16 cores (each band
+  schedule of ``_engine.tiles.run_exact_order`` simulated on 1 to 16 cores (each band
   on its worker, each tile after the one to its left and the one above, the
   measured per-tile overhead added): predicted speed-ups, wave counts.
 - ``stack``: a ``--planes`` x 1024² uint16 stack, 1 thread against every core.
@@ -84,13 +84,19 @@ def timed(function, repeats=1, clock=time.perf_counter):
 
 def tiled_pass(tones, parameters, workers, tile):
     """One pass of the exact-order tiles on ``workers`` threads (1 included), in place."""
-    from napari_labyrinth import _engine
+    from napari_labyrinth._engine import new_changes
+    from napari_labyrinth._engine.passes import pass_kernel_for, pass_parameters
+    from napari_labyrinth._engine.tiles import run_exact_order
+    from napari_labyrinth.core._kernel_arguments import PlanePass
 
-    labyrinth_pass = _engine._pass_kernel(parameters)
+    kernel_parameters = pass_parameters(parameters)
+    labyrinth_pass = pass_kernel_for(kernel_parameters)
     counts = np.zeros(6, np.int64)
-    arguments = (tones, *_engine._kernel_arguments(parameters), np.uint64(0), 0, 0)
-    options = (*_engine._kernel_options(parameters), False)
-    _engine._exact_order(labyrinth_pass, arguments, options, counts, *tile, workers)
+    plane_pass = PlanePass(np.uint64(0), 0, 0, False)
+    run_exact_order(
+        labyrinth_pass, tones, kernel_parameters, plane_pass, counts, new_changes(0), *tile,
+        workers,
+    )  # fmt: skip
     return counts
 
 
@@ -237,33 +243,33 @@ def bench_tiles(repeats, presets=PRESETS):
 
 def tile_times(tones, parameters, tile):
     """CPU seconds of every tile, run one after the other on this thread (band by band)."""
-    from napari_labyrinth import _engine
+    from napari_labyrinth._engine import exact_order_tiles, new_changes
+    from napari_labyrinth._engine.passes import pass_kernel_for, pass_parameters
+    from napari_labyrinth.core._kernel_arguments import PassRegion, PlanePass
 
-    labyrinth_pass = _engine._pass_kernel(parameters)
+    kernel_parameters = pass_parameters(parameters)
+    labyrinth_pass = pass_kernel_for(kernel_parameters)
     rows, diagonals = tile
     height = tones.shape[0]
-    tiles = _engine.exact_order_tiles(tones.shape, rows, diagonals)
-    arguments = (tones, *_engine._kernel_arguments(parameters), np.uint64(0), 0, 0)
-    options = (*_engine._kernel_options(parameters), False)
+    tiles = exact_order_tiles(tones.shape, rows, diagonals)
+    plane_pass = PlanePass(np.uint64(0), 0, 0, False)
     counts = np.zeros(6, np.int64)
-    changes = _engine.new_changes(0)
+    changes = new_changes(0)
     times = []
     for band, js in enumerate(tiles):
         row_start, row_stop = band * rows, min(height, (band + 1) * rows)
         band_times = []
         for j in js:
             start = time.thread_time()
-            labyrinth_pass(  # every argument given: numba's fast dispatch, as in _engine
-                *arguments, *options, counts, -1, row_start, row_stop, j * diagonals,
-                (j + 1) * diagonals, changes, 0, -1,
-            )  # fmt: skip
+            tile = PassRegion(-1, row_start, row_stop, j * diagonals, (j + 1) * diagonals)
+            labyrinth_pass(tones, kernel_parameters, plane_pass, tile, counts, changes)
             band_times.append(time.thread_time() - start)
         times.append(band_times)
     return tiles, times
 
 
 def simulate(tiles, times, workers, overhead):
-    """Finish time of ``_engine._exact_order``'s schedule on ``workers`` cores, from tile times.
+    """Finish time of ``tiles.run_exact_order``'s schedule on ``workers`` cores, from tile times.
 
     The same rules: a band's next tile may run once the band above is done up
     to it; a free core takes the upper ready band's tile; ``overhead`` is added

@@ -34,19 +34,25 @@ class CReference:
 
     def run_pass(self, tones, parameters, *, seed=0, plane_index=0, pass_index=0, counts=None,
                  has_nonfinite=None):  # fmt: skip
-        from napari_labyrinth._engine import _kernel_arguments, _kernel_options
+        from napari_labyrinth._engine.passes import pass_parameters
 
         assert tones.dtype == np.float32 and tones.flags.c_contiguous and tones.ndim == 2
         if counts is None:
             counts = np.zeros(6, np.int64)
         if has_nonfinite is None:
             has_nonfinite = not np.isfinite(tones).all()
-        t, v, bounds, low, high, tries = _kernel_arguments(parameters)
+        kernel = pass_parameters(parameters)
+        bounds = kernel.range_bounds
         bounds = np.ascontiguousarray(bounds if bounds.size else np.zeros(1))
+        low, high = kernel.tone_low, kernel.tone_high
+        options = (
+            kernel.border, kernel.variance_ratio, kernel.variance_action, kernel.condition_order,
+            kernel.on_exhausted, kernel.scan, int(kernel.include_centre), int(has_nonfinite),
+        )  # fmt: skip
         self._pass(
-            tones.ctypes.data, tones.shape[0], tones.shape[1], t, v, bounds.ctypes.data,
-            low.ctypes.data, high.ctypes.data, low.size, tries, seed, plane_index, pass_index,
-            *(int(code) for code in _kernel_options(parameters)), int(has_nonfinite),
+            tones.ctypes.data, tones.shape[0], tones.shape[1], kernel.mean_threshold,
+            kernel.variance_threshold, bounds.ctypes.data, low.ctypes.data, high.ctypes.data,
+            low.size, kernel.max_tries, seed, plane_index, pass_index, *options,
             counts.ctypes.data,
         )  # fmt: skip
         return counts

@@ -135,3 +135,101 @@ def test_a_change_to_a_helper_in_another_file_compiles_its_kernel_again(tmp_path
     helper.write_text(helper.read_text().replace("x + 1", "x + 5"))
     os.utime(helper, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))  # as a reinstall may leave it
     assert result() == "6"
+
+
+@pytest.mark.subprocess
+def test_a_named_tuple_argument_with_fields_moved_compiles_its_kernel_again(tmp_path):
+    """numba's cache index knows a NamedTuple by its class and its fields' types, not its
+    fields' names: a kernel that imports its argument's class has that file in its stamp."""
+    package = tmp_path / "kernels"
+    package.mkdir()
+    arguments = package / "arguments.py"
+    arguments.write_text(
+        "from typing import NamedTuple\n\n"
+        "class Pair(NamedTuple):\n    first: int\n    second: int\n"
+    )
+    (package / "kernel.py").write_text(
+        "from napari_labyrinth.core._jit import cached_njit\n"
+        "from arguments import Pair  # noqa: F401\n\n"
+        "@cached_njit()\n"
+        "def kernel(pair):\n    return pair.first - pair.second\n"
+    )
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=os.pathsep.join(
+        [str(package), *filter(None, [os.environ.get("PYTHONPATH")])]))
+
+    def result():
+        run = subprocess.run(
+            [sys.executable, "-c", "from kernel import kernel, Pair; print(kernel(Pair(5, 2)))"],
+            capture_output=True, text=True, env=env, check=True,
+        )  # fmt: skip
+        return run.stdout.strip()
+
+    assert result() == "3"
+    stamp = arguments.stat()
+    moved = arguments.read_text().replace("first: int\n    second", "second: int\n    first")
+    arguments.write_text(moved)  # the same size, and the same time below
+    os.utime(arguments, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))
+    assert result() == "-3"
+
+
+def test_compiled_for_calls_the_kernel_s_code_for_the_same_types(tmp_path):
+    from typing import NamedTuple
+
+    import numpy as np
+
+    class Span(NamedTuple):
+        start: int
+        stop: int
+
+    module = tmp_path / "summed.py"
+    module.write_text(
+        "from napari_labyrinth.core._jit import cached_njit\n\n"
+        "@cached_njit(nogil=True)\n"
+        "def summed(values, span, out):\n"
+        "    for i in range(span.start, span.stop):\n        out[0] += values[i]\n"
+    )
+    spec = importlib.util.spec_from_file_location("summed", module)
+    loaded = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(loaded)
+    values, out = np.arange(10.0), np.zeros(1)
+    code = _jit.compiled_for(loaded.summed, values, Span(0, 1), out)  # compiled here
+    assert code is not loaded.summed and len(loaded.summed.overloads) == 1
+    code(values, Span(2, 5), out)
+    assert out[0] == 2 + 3 + 4
+    assert _jit.compiled_for(len, "a") is len  # no numba dispatcher: itself
+
+
+@pytest.mark.subprocess
+def test_an_index_naming_a_class_no_longer_there_reads_as_stale(tmp_path):
+    """numba unpickles a kernel's cache index before it compares the stamp: a NamedTuple
+    argument moved to another module since the index was written must not raise."""
+    package = tmp_path / "kernels"
+    package.mkdir()
+    pair = (
+        "from typing import NamedTuple\n\n"
+        "class Pair(NamedTuple):\n    first: int\n    second: int\n"
+    )
+    (package / "arguments.py").write_text(pair)
+    kernel = package / "kernel.py"
+    kernel.write_text(
+        "from napari_labyrinth.core._jit import cached_njit\n"
+        "from arguments import Pair  # noqa: F401\n\n"
+        "@cached_njit()\n"
+        "def kernel(pair):\n    return pair.first - pair.second\n"
+    )
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=os.pathsep.join(
+        [str(package), *filter(None, [os.environ.get("PYTHONPATH")])]))
+
+    def result():
+        run = subprocess.run(
+            [sys.executable, "-c", "from kernel import kernel, Pair; print(kernel(Pair(5, 2)))"],
+            capture_output=True, text=True, env=env,
+        )  # fmt: skip
+        assert run.returncode == 0, run.stderr
+        return run.stdout.strip()
+
+    assert result() == "3"
+    (package / "arguments.py").unlink()
+    (package / "shapes.py").write_text(pair)
+    kernel.write_text(kernel.read_text().replace("from arguments", "from shapes"))
+    assert result() == "3"

@@ -13,7 +13,7 @@ The results are those of ``_tone_loops.integer_tones``, then
 ``labyrinth_pass`` over the whole plane, then ``_tone_loops.write_back``
 (``rounded_tones`` for uint8 on the scale (0, 255)), bit for bit: the same
 kernel runs over the same plane in the same order, one band of rows after
-the other (``tests/test_engine.py`` checks it for every scan but the
+the other (``tests/_engine/test_render_loop.py`` checks it for every scan but the
 checkerboard, which visits the plane four times and is not banded).
 """
 
@@ -24,6 +24,7 @@ from numba import njit
 
 from ._jit import cached_njit
 from ._kernel import PASS_VARIANTS, variant_index
+from ._kernel_arguments import PassRegion  # its file, the arguments', is in the cache stamp
 from ._tone_loops import _tone
 from .codes import WRAP
 
@@ -46,11 +47,8 @@ def _banded_pass_variant(variant):
     ``_kernel.pass_kernel``); :func:`banded_kernel` picks it."""
 
     @cached_njit(nogil=True)
-    def banded_pass(values, target, tones, rows, tones_in, write_out, paper_uint8, low, gain,
-                    low32, gain32, wide, lowest, highest, mean_threshold, variance_threshold,
-                    range_bounds, tone_low, tone_high, max_tries, seed, plane_index, pass_index,
-                    border, variance_ratio, variance_action, condition_order, on_exhausted, scan,
-                    include_centre, counts, changes):  # fmt: skip
+    def banded_pass(values, target, tones, rows, tones_in, write_out, scale, parameters,
+                    plane_pass, counts, changes):  # fmt: skip
         """One pass of ``labyrinth_pass`` over the tones of the integer plane ``values``.
 
         Parameters
@@ -71,16 +69,16 @@ def _banded_pass_variant(variant):
             the tones never leave the cache (any border but ``"wrap"``).
         rows : int
             Rows of a band (``band_rows(W)``; a ring holds ``rows + 2``).
-        tones_in, write_out, paper_uint8 : bool
-            Make the tones; write the values; uint8 on the scale (0, 255), where
-            a tone is its value (in a whole plane every one is rounded back,
-            nothing compared; in a ring the values are copied with the tones and
-            the changed ones written, as for any other scale).
-        low, gain, low32, gain32, wide, lowest, highest
-            The tone scale as ``_tone_loops.write_back`` takes it.
-        mean_threshold, ..., include_centre, counts
-            As ``labyrinth_pass`` takes them (a plane of integers is finite),
-            any scan but the checkerboard.
+        tones_in, write_out : bool
+            Make the tones; write the values.
+        scale : IntegerScale
+            The tone scale of ``values``' dtype. With ``paper_uint8`` (uint8 on
+            the scale (0, 255)) a tone is its value: in a whole plane every one
+            is rounded back, nothing compared; in a ring the values are copied
+            with the tones and the changed ones written, as for any other scale.
+        parameters, plane_pass, counts
+            As ``labyrinth_pass`` takes them (any scan but the checkerboard;
+            ``plane_pass.has_nonfinite`` False: a plane of integers is finite).
         changes : (1 + capacity,) int64 array
             The pixels the passes write, as ``labyrinth_pass`` notes them (zero
             before the first pass): with a ring, those of each band in turn; with
@@ -88,6 +86,7 @@ def _banded_pass_variant(variant):
             source values are copied and only they are written.
         """
         height, width = values.shape
+        paper_uint8 = scale.paper_uint8
         ring = tones.shape[0] < height
         made = 0  # rows whose tones are made
         # a whole plane that changed little so far: its values are written after the pass
@@ -95,8 +94,8 @@ def _banded_pass_variant(variant):
         # the only pass, a ring: the source values copied into the target with the tones
         # (uint8 on (0, 255) too: a copy and the few changes cost less than rounding every tone)
         copied = ring and write_out
-        if tones_in and border == WRAP and height > 1:  # row 0 reads the last row
-            _make_tones(values, tones, height - 1, height, 0, low, gain, low32, gain32, wide)
+        if tones_in and parameters.border == WRAP and height > 1:  # row 0 reads the last row
+            _make_tones(values, tones, height - 1, height, 0, scale)
         for band_start in range(0, height, rows):
             band_stop = min(height, band_start + rows)
             # ``tones`` holds the rows from ``offset`` on: the ring, from the row above the band
@@ -108,36 +107,28 @@ def _banded_pass_variant(variant):
             if tones_in:  # the band and the row below it, which the band's last row reads
                 ahead = min(height, band_stop + 1)
                 if copied:  # and the source values into the target, where few will change
-                    _make_tones_and_copy(values, tones, target, made, ahead, offset, low, gain,
-                                         low32, gain32, wide)  # fmt: skip
+                    _make_tones_and_copy(values, tones, target, made, ahead, offset, scale)
                 else:
-                    _make_tones(values, tones, made, ahead, offset, low, gain, low32, gain32, wide)
+                    _make_tones(values, tones, made, ahead, offset, scale)
                 made = ahead
             if ring:
                 changes[0] = 0
-            kernel_arguments = (
-                tones, mean_threshold, variance_threshold, range_bounds, tone_low, tone_high,
-                max_tries, seed, plane_index, pass_index, border, variance_ratio, variance_action,
-                condition_order, on_exhausted, scan, include_centre, False, counts, -1, band_start,
-                band_stop, 0, -1, changes, offset, height,
-            )  # fmt: skip
+            region = PassRegion(-1, band_start, band_stop, 0, -1, offset, height)
             # ``variant`` is a constant: the branches of the other variants fold away (a
             # kernel taken from a tuple would be called through a pointer, not compiled in)
             if variant == 0:
-                _pass_0(*kernel_arguments)
+                _pass_0(tones, parameters, plane_pass, region, counts, changes)
             elif variant == 1:
-                _pass_1(*kernel_arguments)
+                _pass_1(tones, parameters, plane_pass, region, counts, changes)
             elif variant == 2:
-                _pass_2(*kernel_arguments)
+                _pass_2(tones, parameters, plane_pass, region, counts, changes)
             else:
-                _pass_3(*kernel_arguments)
+                _pass_3(tones, parameters, plane_pass, region, counts, changes)
             if write_out and not deferred:
                 _write_band(target, values, tones, band_start, band_stop, offset, changes, ring,
-                            paper_uint8, copied, low, gain, low32, gain32, wide, lowest,
-                            highest)  # fmt: skip
+                            paper_uint8, copied, scale)  # fmt: skip
         if deferred:
-            _write_band(target, values, tones, 0, height, 0, changes, True, False, False, low,
-                        gain, low32, gain32, wide, lowest, highest)  # fmt: skip
+            _write_band(target, values, tones, 0, height, 0, changes, True, False, False, scale)
 
     return banded_pass
 
@@ -154,7 +145,7 @@ def banded_kernel(condition_order: int, include_centre: bool):
 
 @njit(nogil=True)
 def _write_band(target, values, tones, row_start, row_stop, offset, changes, listed, paper_uint8,
-                copied, low, gain, low32, gain32, wide, lowest, highest):  # fmt: skip
+                copied, scale):  # fmt: skip
     """The values of the rows ``row_start <= y < row_stop`` (tones at ``tones[y - offset]``):
     if ``listed`` and ``changes`` holds few pixels (all that changed there), the source
     values (unless ``copied`` there already) and those; else every pixel compared."""
@@ -166,18 +157,17 @@ def _write_band(target, values, tones, row_start, row_stop, offset, changes, lis
     if listed and written < changes.shape[0] and 16 * written < pixels:
         if not copied:
             _copy_rows(target, values, row_start, row_stop)
-        _write_listed(target, values, tones, changes[1 : written + 1], offset, low, gain, low32,
-                      gain32, wide, lowest, highest)  # fmt: skip
+        _write_listed(target, values, tones, changes[1 : written + 1], offset, scale)
     else:
-        _write_rows(target, values, tones, row_start, row_stop, offset, low, gain, low32, gain32,
-                    wide, lowest, highest)  # fmt: skip
+        _write_rows(target, values, tones, row_start, row_stop, offset, scale)
 
 
 @njit(nogil=True)
-def _make_tones(values, tones, row_start, row_stop, offset, low, gain, low32, gain32, wide):
+def _make_tones(values, tones, row_start, row_stop, offset, scale):
     """``integer_tones`` of the rows ``row_start <= y < row_stop``, into ``tones[y - offset]``."""
     width = values.shape[1]
-    if wide:  # the test out of the loop: the loop over a row runs on vector registers
+    low, gain, low32, gain32 = scale.low, scale.gain, scale.low32, scale.gain32
+    if scale.wide:  # the test out of the loop: the loop over a row runs on vector registers
         for y in range(row_start, row_stop):
             for x in range(width):
                 tones[y - offset, x] = _tone(values[y, x], low, gain, low32, gain32, True)
@@ -188,12 +178,12 @@ def _make_tones(values, tones, row_start, row_stop, offset, low, gain, low32, ga
 
 
 @njit(nogil=True)
-def _make_tones_and_copy(values, tones, target, row_start, row_stop, offset, low, gain, low32,
-                         gain32, wide):  # fmt: skip
+def _make_tones_and_copy(values, tones, target, row_start, row_stop, offset, scale):
     """``_make_tones``, and the rows' values copied into ``target`` in the same loop."""
     width = values.shape[1]
+    low, gain, low32, gain32 = scale.low, scale.gain, scale.low32, scale.gain32
     for y in range(row_start, row_stop):
-        if wide:
+        if scale.wide:
             for x in range(width):
                 value = values[y, x]
                 target[y, x] = value
@@ -215,11 +205,12 @@ def _copy_rows(target, values, row_start, row_stop):
 
 
 @njit(nogil=True)
-def _write_rows(target, values, tones, row_start, row_stop, offset, low, gain, low32, gain32,
-                wide, lowest, highest):  # fmt: skip
+def _write_rows(target, values, tones, row_start, row_stop, offset, scale):
     """Every pixel of the rows: its source value, or the value of its changed tone
     (``tones[y - offset]``)."""
     width = values.shape[1]
+    low, gain, low32, gain32, wide = scale.low, scale.gain, scale.low32, scale.gain32, scale.wide
+    lowest, highest = scale.lowest, scale.highest
     for y in range(row_start, row_stop):
         for x in range(width):
             tone = tones[y - offset, x]
@@ -233,11 +224,12 @@ def _write_rows(target, values, tones, row_start, row_stop, offset, low, gain, l
 
 
 @njit(nogil=True)
-def _write_listed(target, values, tones, indices, offset, low, gain, low32, gain32, wide, lowest,
-                  highest):  # fmt: skip
+def _write_listed(target, values, tones, indices, offset, scale):
     """The value of the changed tone (``tones[y - offset]``) at the pixels of flat
     ``indices`` (repeats allowed)."""
     width = values.shape[1]
+    low, gain, low32, gain32, wide = scale.low, scale.gain, scale.low32, scale.gain32, scale.wide
+    lowest, highest = scale.lowest, scale.highest
     for index in indices:
         y, x = index // width, index % width
         tone = tones[y - offset, x]

@@ -9,15 +9,27 @@ instead (every new process compiles again) and says so once.
 
 numba takes a cached kernel as current while its own source file keeps its
 modification time and size; the code of the helpers it calls from other files
-is compiled into it, and a change there would go unseen. ``cached_njit``
-stamps a kernel's cache with the contents of its file and of every file its
-helpers come from, so that a change to any of them compiles it again.
+is compiled into it, and a change there would go unseen. Nor does numba's
+cache index know a NamedTuple argument by its fields' names: one moved or
+renamed would be read at its old place. ``cached_njit`` stamps a kernel's
+cache with the contents of its file and of every file its helpers and the
+NamedTuple classes in their modules come from, so that a change to any of
+them compiles it again. numba reads the index before its stamp: an index that
+names a NamedTuple class no longer there (moved since it was written) reads
+as stale, instead of raising.
+
+numba's dispatcher types every argument of every call, a NamedTuple on its
+Python route (about 2 µs each); :func:`compiled_for` gives a caller that
+calls a kernel many times with arguments of the same types its compiled code
+to call without that.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import inspect
+import pickle
 import threading
 import warnings
 
@@ -57,6 +69,7 @@ def cached_njit(**options):
             _warn_once()
         else:
             _stamp_with_sources(dispatcher)
+            _read_unreadable_index_as_stale(dispatcher)
         return dispatcher
 
     return decorate
@@ -76,10 +89,34 @@ def _stamp_with_sources(dispatcher) -> None:
     cache_file._source_stamp = (cache_file._source_stamp, digest.hexdigest())
 
 
+def _read_unreadable_index_as_stale(dispatcher) -> None:
+    """Make an index of ``dispatcher``'s cache that does not unpickle read as stale.
+
+    numba unpickles a kernel's cache index (its signatures) before it compares the
+    stamp: a signature that names a class no longer there, a NamedTuple argument
+    moved or renamed since the index was written, would raise at the kernel's first
+    call. Read as empty, the kernel compiles again and its index is written anew.
+    """
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    load_index = getattr(cache_file, "_load_index", None)
+    if load_index is None:
+        return  # a numba whose cache differs: as it is
+
+    def load_index_or_nothing():
+        try:
+            return load_index()
+        except (ImportError, AttributeError, EOFError, pickle.UnpicklingError):
+            return {}
+
+    cache_file._load_index = load_index_or_nothing
+
+
 def _source_files(function, seen: set[str] | None = None) -> set[str]:
     """The file of ``function`` and those of the jitted functions it reaches through its
     globals (helpers, tuples of kernels), as the decorator sees them: helpers come from
-    imports at the top of a module or are defined above their caller."""
+    imports at the top of a module or are defined above their caller. The files of the
+    NamedTuple classes in those globals too: the kernels' arguments, imported at the top
+    of their modules."""
     seen = set() if seen is None else seen
     try:
         path = inspect.getsourcefile(function)
@@ -95,7 +132,38 @@ def _source_files(function, seen: set[str] | None = None) -> set[str]:
             values.extend(value)
         elif hasattr(value, "py_func") and hasattr(value, "overloads"):  # a dispatcher
             _source_files(value.py_func, seen)
+        elif isinstance(value, type) and issubclass(value, tuple) and hasattr(value, "_fields"):
+            with contextlib.suppress(TypeError, OSError):  # a NamedTuple of no file
+                seen.add(inspect.getsourcefile(value) or "")
+    seen.discard("")
     return seen
+
+
+def compiled_for(dispatcher, *arguments):
+    """The compiled code of ``dispatcher`` for the types of ``arguments``, compiled or
+    loaded from numba's disk cache first if need be, to call without typing them again.
+
+    Parameters
+    ----------
+    dispatcher : numba dispatcher
+        A kernel.
+    *arguments
+        Arguments of the types of every later call.
+
+    Returns
+    -------
+    callable
+        Takes arguments of exactly those types (any other is undefined behaviour)
+        and runs the kernel, holding no GIL if the kernel is ``nogil``. Where
+        numba's internals differ, ``dispatcher`` itself.
+    """
+    try:
+        signature = tuple(dispatcher.typeof_pyval(argument) for argument in arguments)
+        if signature not in dispatcher.overloads:
+            dispatcher.compile(signature)
+        return dispatcher.overloads[signature].entry_point
+    except (AttributeError, TypeError, KeyError):  # a numba whose dispatchers differ
+        return dispatcher
 
 
 def _warn_once() -> None:

@@ -21,6 +21,9 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from ._jit import cached_njit
+
+# the kernels' arguments: imported here, their file is part of the kernels' cache stamp
+from ._kernel_arguments import PassParameters, PassRegion, PlanePass  # noqa: F401
 from .codes import (
     INSIDE,
     KEEP,
@@ -381,50 +384,35 @@ def _labyrinth_pass_variant(variance_decides_first, centre_counts):
     """
 
     @cached_njit(nogil=True)
-    def labyrinth_pass(plane, mean_threshold, variance_threshold, range_bounds, tone_low,
-                       tone_high, max_tries, seed, plane_index, pass_index, border,
-                       variance_ratio, variance_action, condition_order, on_exhausted, scan,
-                       include_centre,
-                       has_nonfinite, counts, colour=-1, row_start=0, row_stop=-1,
-                       diagonal_start=0, diagonal_stop=-1, changes=None, row_offset=0,
-                       plane_height=-1):  # fmt: skip
+    def labyrinth_pass(plane, parameters, plane_pass, region, counts, changes):
         """Run one pass of the algorithm over ``plane`` in place (Eq. 1-4).
 
         Parameters
         ----------
         plane : (H, W) float32 C-contiguous array
             Tones on the 0-255 scale; non-finite values never change and never count.
-        mean_threshold, variance_threshold, range_bounds, tone_low, tone_high, max_tries
-            t of Eq. 2, V of Eq. 4, the inner range limits L_sup^1 .. L_sup^(n-1),
-            T_inf^i and T_sup^i of Eq. 3 (float64 arrays), and the draws before giving up.
-        seed, plane_index, pass_index : int
-            Select the random stream (see ``stream_key``).
-        border, variance_ratio, variance_action, condition_order, on_exhausted, scan : int
-            The options' codes, in the order of ``codes.OPTION_CODES``; then
-            ``include_centre`` (bool) and ``has_nonfinite`` (False promises an
-            all-finite plane: interior pixels skip the checks).
+        parameters : _kernel_arguments.PassParameters
+            t, V, the tone ranges, the draws before giving up and the options'
+            codes; its ``condition_order`` and ``include_centre`` are the
+            variant's (:func:`pass_kernel`).
+        plane_pass : _kernel_arguments.PlanePass
+            The random stream (``seed``, ``plane_index``, ``pass_index``: see
+            ``stream_key``) and ``has_nonfinite`` (False promises an all-finite
+            plane: interior pixels skip the checks).
+        region : _kernel_arguments.PassRegion
+            The pixels this call visits: a checkerboard colour, a band of rows, a
+            range of diagonals ``x + y`` (a parallelogram tile of the exact-order
+            schedule of ``_engine``), and the rows of the plane that ``plane``
+            holds (``WHOLE_PLANE``: all of them). Rows, random streams and
+            borders are those of the whole plane.
         counts : (6,) int64 array
             Incremented at the diagnostic codes (``codes.KEPT_BY_MEAN``, ...).
-        colour : int, optional
-            -1: every pixel in the order of ``scan``; 0-3: only the pixels with
-            ``(y % 2, x % 2) == (colour // 2, colour % 2)``, none of them
-            neighbours, so bands of rows of one colour may run on threads at once.
-        row_start, row_stop, diagonal_start, diagonal_stop : int, optional
-            Only the rows ``row_start <= y < row_stop`` and, in a raster or
-            serpentine scan, the pixels with ``diagonal_start <= x + y <
-            diagonal_stop``: a parallelogram tile of the exact-order schedule
-            (``_engine``). A stop of -1 is the end of the plane.
-        changes : (1 + capacity,) int64 array, optional
+        changes : (1 + capacity,) int64 array
             Where the pass notes the pixels it writes: ``changes[0]`` is
             incremented for every write and the first ``capacity`` writes' flat
             indices ``y * W + x`` follow it (so that the write-back of a few
             changes need not visit the whole plane). A pixel written to the
             tone it had is noted too.
-        row_offset, plane_height : int, optional
-            ``plane`` holds only the rows ``row_offset, row_offset + 1, ...`` of a
-            plane of ``plane_height`` rows (-1: ``plane`` is the whole plane): a
-            band of rows with the rows around it that the pass reads. Rows,
-            random streams and borders are those of the whole plane.
 
         Notes
         -----
@@ -433,9 +421,20 @@ def _labyrinth_pass_variant(variance_decides_first, centre_counts):
         variant's ``condition_order`` and ``include_centre``; every other pixel takes the
         full path below it. Both agree with ``_reference.py`` bit for bit.
         """
+        mean_threshold = parameters.mean_threshold
+        variance_threshold = parameters.variance_threshold
+        range_bounds, tone_low, tone_high = (
+            parameters.range_bounds, parameters.tone_low, parameters.tone_high
+        )  # fmt: skip
+        max_tries, border, scan = parameters.max_tries, parameters.border, parameters.scan
+        variance_ratio, variance_action = parameters.variance_ratio, parameters.variance_action
+        on_exhausted, has_nonfinite = parameters.on_exhausted, plane_pass.has_nonfinite
+        colour, row_start, row_stop = region.colour, region.row_start, region.row_stop
+        diagonal_start, diagonal_stop = region.diagonal_start, region.diagonal_stop
+        row_offset, plane_height = region.row_offset, region.plane_height
         width = plane.shape[1]
         height = plane.shape[0] if plane_height < 0 else plane_height
-        key = stream_key(seed, plane_index, pass_index)
+        key = stream_key(plane_pass.seed, plane_pass.plane_index, plane_pass.pass_index)
         neighbours = np.empty(8, dtype=np.float64)
         if row_stop < 0:
             row_stop = height
@@ -608,5 +607,5 @@ def variant_index(condition_order: int, include_centre: bool) -> int:
 
 def pass_kernel(condition_order: int, include_centre: bool):
     """The numba kernel of one pass (``labyrinth_pass``) for ``condition_order`` and
-    ``include_centre``, which the kernel's own arguments must repeat."""
+    ``include_centre``, which the kernel's ``parameters`` must repeat."""
     return PASS_VARIANTS[variant_index(condition_order, include_centre)]

@@ -18,7 +18,7 @@
 
 Each loop does the arithmetic of its numpy counterpart in the same precision
 and order (float32 for 8- and 16-bit values, float64 for 32-bit ones), so the
-results are bit for bit the same; ``tests/test_engine.py`` checks it.
+results are bit for bit the same; ``tests/_engine/test_render_loop.py`` checks it.
 """
 
 import math
@@ -28,6 +28,9 @@ from numba import njit
 
 from ._jit import cached_njit
 from ._kernel import prefetch_flat
+
+# the loops' arguments: imported here, their file is part of the loops' cache stamp
+from ._kernel_arguments import IntegerScale  # noqa: F401
 
 
 @cached_njit(nogil=True)
@@ -487,22 +490,27 @@ def _tone(value, low, gain, low32, gain32, wide):
 
 
 @cached_njit(nogil=True)
-def integer_tones(values, tones, low, gain, low32, gain32, wide):
-    """Fill the float32 plane ``tones`` with the tones of the integer plane ``values``."""
+def integer_tones(values, tones, scale):
+    """Fill the float32 plane ``tones`` with the tones of the integer plane ``values``
+    on ``scale`` (an ``IntegerScale``)."""
     height, width = values.shape
+    low, gain, low32, gain32, wide = scale.low, scale.gain, scale.low32, scale.gain32, scale.wide
     for y in range(height):
         for x in range(width):
             tones[y, x] = _tone(values[y, x], low, gain, low32, gain32, wide)
 
 
 @cached_njit(nogil=True)
-def write_back(target, source, tones, low, gain, low32, gain32, wide, lowest, highest):
+def write_back(target, source, tones, scale):
     """Where a tone of ``tones`` differs from that of ``source``, write its value to ``target``.
 
     The value is ``rint(tone / gain + low)`` clipped to ``[lowest, highest]``
-    (``ToneScale.from_tones``); ``target`` holds the source values elsewhere.
+    (``ToneScale.from_tones``; the fields of ``scale``, an ``IntegerScale``);
+    ``target`` holds the source values elsewhere.
     """
     height, width = source.shape
+    low, gain, low32, gain32, wide = scale.low, scale.gain, scale.low32, scale.gain32, scale.wide
+    lowest, highest = scale.lowest, scale.highest
     for y in range(height):
         for x in range(width):
             tone = tones[y, x]
@@ -515,14 +523,15 @@ def write_back(target, source, tones, low, gain, low32, gain32, wide, lowest, hi
 
 
 @cached_njit(nogil=True)
-def write_back_at(target, source, tones, indices, low, gain, low32, gain32, wide, lowest,
-                  highest):  # fmt: skip
+def write_back_at(target, source, tones, indices, scale):
     """``write_back`` at the pixels of flat indices ``y * W + x`` in ``indices`` only.
 
     Every other pixel must have its source tone (the pass did not write it);
     an index may be listed more than once.
     """
     width = source.shape[1]
+    low, gain, low32, gain32, wide = scale.low, scale.gain, scale.low32, scale.gain32, scale.wide
+    lowest, highest = scale.lowest, scale.highest
     # write_back's body, repeated: shared through an inlined helper it made write_back's
     # whole-plane loop three times slower (6.3 ms against 2.1 ms at 2048²)
     for index in indices:

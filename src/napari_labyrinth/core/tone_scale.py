@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ._kernel_arguments import IntegerScale
 from .parameters import as_float, scalar
 from .percentiles import counting_pays, integer_percentiles
 
@@ -215,7 +216,7 @@ def integer_plane_tones(scale: ToneScale, values: np.ndarray) -> np.ndarray | No
     from ._tone_loops import integer_tones  # numba is imported on first use only
 
     tones = np.empty(values.shape, dtype=np.float32)
-    integer_tones(values, tones, *_loop_scale(scale, values.dtype))
+    integer_tones(values, tones, integer_scale(scale, values.dtype))
     return tones
 
 
@@ -234,10 +235,7 @@ def write_changed_values(
     if _is_paper_scale(scale, values.dtype) and target.flags.c_contiguous:
         rounded_tones(target, tones)
         return
-    info = np.iinfo(values.dtype)
-    write_back(
-        target, values, tones, *_loop_scale(scale, values.dtype), float(info.min), float(info.max)
-    )
+    write_back(target, values, tones, integer_scale(scale, values.dtype))
 
 
 def write_listed_values(
@@ -251,20 +249,25 @@ def write_listed_values(
     """
     from ._tone_loops import write_back_at  # numba is imported on first use only
 
-    info = np.iinfo(values.dtype)
-    write_back_at(
-        target, values, tones, indices, *_loop_scale(scale, values.dtype), float(info.min),
-        float(info.max),
-    )  # fmt: skip
+    write_back_at(target, values, tones, indices, integer_scale(scale, values.dtype))
 
 
-def banded_scale_arguments(scale: ToneScale, dtype: np.dtype) -> tuple[Any, ...]:
-    """The tone scale as ``_banded_pass.banded_pass`` takes it, for integers of ``dtype``:
-    uint8 on (0, 255), the scale as ``write_changed_values`` passes it, the dtype's range."""
+def integer_scale(scale: ToneScale, dtype: np.dtype) -> IntegerScale:
+    """``scale`` as the numba loops over integer planes take it, for integers of ``dtype``."""
+    gain = scale._gain
+    wide = np.dtype(dtype).itemsize > 2 or not scale._fits_float32
+    if scale._fits_float32:
+        low32, gain32 = np.float32(scale.low), np.float32(gain)
+    else:  # float32 of the limits or the gain may not be finite
+        low32, gain32 = np.float32(0.0), np.float32(1.0)
     info = np.iinfo(dtype)
-    return (
-        _is_paper_scale(scale, dtype),
-        *_loop_scale(scale, dtype),
+    return IntegerScale(
+        bool(_is_paper_scale(scale, dtype)),
+        float(scale.low),
+        float(gain),
+        low32,
+        gain32,
+        bool(wide),
         float(info.min),
         float(info.max),
     )
@@ -283,12 +286,3 @@ def _is_paper_scale(scale: ToneScale, dtype: np.dtype) -> bool:
 
 def _fused(values: np.ndarray) -> bool:
     return values.dtype.kind in "iu" and values.ndim == 2 and values.flags.c_contiguous
-
-
-def _loop_scale(scale: ToneScale, dtype: np.dtype) -> tuple[Any, ...]:
-    """low, gain, both as float32, and whether the values need float64 (as ``to_tones``)."""
-    gain = scale._gain
-    wide = np.dtype(dtype).itemsize > 2 or not scale._fits_float32
-    if not scale._fits_float32:  # float32 of the limits or the gain may not be finite
-        return scale.low, gain, np.float32(0.0), np.float32(1.0), wide
-    return scale.low, gain, np.float32(scale.low), np.float32(gain), wide

@@ -89,8 +89,11 @@ from napari_labyrinth import PRESETS  # noqa: E402
 from napari_labyrinth._engine import (  # noqa: E402
     exact_order_refusal,
     exact_order_tiles,
+    new_changes,
     run_pass,
 )
+from napari_labyrinth._engine.passes import pass_kernel_for, pass_parameters  # noqa: E402
+from napari_labyrinth.core._kernel_arguments import PassRegion, PlanePass  # noqa: E402
 from napari_labyrinth.core.parameters import PARAMETERS, make_parameters  # noqa: E402
 
 #: Every option the tiles reproduce: the choices of the parameter table but
@@ -158,18 +161,15 @@ def test_tiles_equal_the_raster_scan_on_odd_sizes_and_non_finite_planes(shape, h
 
 def _tile_order_results(plane, parameters, rows, diagonals, order):
     """The plane after running its tiles one after the other in ``order``."""
-    from napari_labyrinth._engine import _kernel_arguments, _kernel_options, _pass_kernel
-
-    labyrinth_pass = _pass_kernel(parameters)
+    kernel_parameters = pass_parameters(parameters)
+    labyrinth_pass = pass_kernel_for(kernel_parameters)
     work = plane.copy()
     counts = np.zeros(6, np.int64)
-    has_nonfinite = not np.isfinite(plane).all()
+    plane_pass = PlanePass(np.uint64(3), 1, 2, not np.isfinite(plane).all())
     for band, j in order:
-        labyrinth_pass(
-            work, *_kernel_arguments(parameters), np.uint64(3), 1, 2,
-            *_kernel_options(parameters), has_nonfinite, counts, -1, band * rows,
-            min(plane.shape[0], (band + 1) * rows), j * diagonals, (j + 1) * diagonals,
-        )  # fmt: skip
+        row_stop = min(plane.shape[0], (band + 1) * rows)
+        tile = PassRegion(-1, band * rows, row_stop, j * diagonals, (j + 1) * diagonals)
+        labyrinth_pass(work, kernel_parameters, plane_pass, tile, counts, new_changes(0))
     return work, counts
 
 
@@ -215,18 +215,18 @@ def test_rectangles_in_wave_order_would_not_equal_the_raster_scan():
     serial = plane.copy()
     run_pass(serial, parameters, seed=3, plane_index=1, pass_index=2)
     rectangles = plane.copy()
-    from napari_labyrinth._engine import _kernel_arguments, _kernel_options, _pass_kernel
-
-    labyrinth_pass = _pass_kernel(parameters)
+    kernel_parameters = pass_parameters(parameters)
+    labyrinth_pass = pass_kernel_for(kernel_parameters)
+    plane_pass = PlanePass(np.uint64(3), 1, 2, False)
     for wave in range(7):
         for band in range(4):
             j = wave - band
             if 0 <= j < 4:  # rows [6 band, 6 band + 6), columns [6 j, 6 j + 6)
                 for y in range(6 * band, 6 * band + 6):
+                    rectangle_row = PassRegion(-1, y, y + 1, 6 * j + y, 6 * j + 6 + y)
                     labyrinth_pass(
-                        rectangles, *_kernel_arguments(parameters), np.uint64(3), 1, 2,
-                        *_kernel_options(parameters), False, np.zeros(6, np.int64), -1, y,
-                        y + 1, 6 * j + y, 6 * j + 6 + y,
+                        rectangles, kernel_parameters, plane_pass, rectangle_row,
+                        np.zeros(6, np.int64), new_changes(0),
                     )  # fmt: skip
     assert not np.array_equal(rectangles, serial)
 
@@ -248,14 +248,14 @@ def test_orders_the_tiles_cannot_follow_run_otherwise_and_say_so(option, value, 
 
 
 def test_a_large_plane_uses_the_tiles_by_default_with_the_same_result(monkeypatch):
-    from napari_labyrinth import _engine
+    from napari_labyrinth._engine import passes
 
-    monkeypatch.setattr(_engine, "idle_cores", lambda: 8)  # as on an idle machine
+    monkeypatch.setattr(passes, "idle_cores", lambda: 8)  # as on an idle machine
 
     calls = []
-    real = _engine._exact_order
+    real = passes.run_exact_order
     monkeypatch.setattr(
-        _engine, "_exact_order", lambda *args: calls.append(args[6]) or real(*args)
+        passes, "run_exact_order", lambda *args: calls.append(args[8]) or real(*args)
     )
     image = (textured_plane((300, 260), seed=4) * 200).astype(np.uint16)
     one = labyrinth(image, passes=2, workers=1, return_diagnostics=True)
@@ -270,13 +270,13 @@ def test_a_large_plane_uses_the_tiles_by_default_with_the_same_result(monkeypatc
 
 
 def test_a_mean_first_pass_takes_bands_twice_as_tall_with_the_same_result(monkeypatch):
-    from napari_labyrinth import _engine
+    from napari_labyrinth._engine import passes
 
-    monkeypatch.setattr(_engine, "idle_cores", lambda: 8)
+    monkeypatch.setattr(passes, "idle_cores", lambda: 8)
     rows = []
-    real = _engine._exact_order
+    real = passes.run_exact_order
     monkeypatch.setattr(
-        _engine, "_exact_order", lambda *args: rows.append(args[4]) or real(*args)
+        passes, "run_exact_order", lambda *args: rows.append(args[6]) or real(*args)
     )
     image = (textured_plane((600, 300), seed=5) * 200).astype(np.uint16)
     for preset in ("paper", "labyrinth"):
@@ -290,12 +290,12 @@ def test_a_mean_first_pass_takes_bands_twice_as_tall_with_the_same_result(monkey
 
 
 def test_tiles_run_on_the_caller_alone_when_no_thread_starts(monkeypatch):
-    from napari_labyrinth import _engine
+    from napari_labyrinth import _threads
 
     def no_thread(*args):
         raise RuntimeError("can't start new thread")
 
-    monkeypatch.setattr(_engine._thread, "start_new_thread", no_thread)
+    monkeypatch.setattr(_threads._thread, "start_new_thread", no_thread)
     plane = textured_plane((130, 150), seed=6)
     assert_same(*serial_and_tiled(plane, make_parameters(**PRESETS["paper"]), 3, (16, 32)))
 
@@ -309,14 +309,14 @@ def test_padded_counts_give_each_thread_whole_cache_lines():
 
 
 def test_workers_left_over_by_the_planes_tile_each_plane(monkeypatch):
-    from napari_labyrinth import _engine
+    from napari_labyrinth._engine import passes
 
-    monkeypatch.setattr(_engine, "idle_cores", lambda: 8)  # as on an idle machine
+    monkeypatch.setattr(passes, "idle_cores", lambda: 8)  # as on an idle machine
 
     calls = []
-    real = _engine._exact_order
+    real = passes.run_exact_order
     monkeypatch.setattr(
-        _engine, "_exact_order", lambda *args: calls.append(args[6]) or real(*args)
+        passes, "run_exact_order", lambda *args: calls.append(args[8]) or real(*args)
     )
     plane = (textured_plane((280, 250), seed=6) * 200).astype(np.uint16)
     stack = np.stack([plane, plane[::-1]])
@@ -328,12 +328,12 @@ def test_workers_left_over_by_the_planes_tile_each_plane(monkeypatch):
 
 
 def test_the_default_tiles_take_no_more_threads_than_idle_cores(monkeypatch):
-    from napari_labyrinth import _engine
+    from napari_labyrinth._engine import passes
 
     calls = []
-    real = _engine._exact_order
+    real = passes.run_exact_order
     monkeypatch.setattr(
-        _engine, "_exact_order", lambda *args: calls.append(args[6]) or real(*args)
+        passes, "run_exact_order", lambda *args: calls.append(args[8]) or real(*args)
     )
     plane = textured_plane((300, 260), seed=5)
     parameters = make_parameters(**PRESETS["paper"])
@@ -341,7 +341,7 @@ def test_the_default_tiles_take_no_more_threads_than_idle_cores(monkeypatch):
     want_counts = run_pass(want, parameters)
     for idle, expected in [(1, []), (2, [2]), (8, [3])]:
         calls.clear()
-        monkeypatch.setattr(_engine, "idle_cores", lambda idle=idle: idle)
+        monkeypatch.setattr(passes, "idle_cores", lambda idle=idle: idle)
         got = plane.copy()
         assert_same(want, want_counts, got, run_pass(got, parameters, workers=3))
         assert calls == expected
@@ -357,19 +357,19 @@ def test_idle_cores_counts_at_least_one():
 
 
 def test_a_task_seen_once_does_not_take_a_core(monkeypatch):
-    from napari_labyrinth import _engine
+    from napari_labyrinth._engine import cores as engine_cores
 
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     if cores < 2:
         pytest.skip("one core: nothing to take")
     readings = iter([0, 1, 0, 1, 1, 1, 1])  # other running tasks, reading after reading
-    monkeypatch.setattr(_engine, "_other_tasks", lambda: next(readings))
-    monkeypatch.setattr(_engine, "_READINGS", collections.deque(maxlen=16))
-    monkeypatch.setattr(_engine, "_SETTLE", 0.0)
-    assert _engine.idle_cores() == cores  # alone
-    assert _engine.idle_cores() == cores  # a task now, none a moment ago: a passing one
-    assert _engine.idle_cores() == cores  # alone again
-    assert _engine.idle_cores() == cores  # a task, none at the last reading
-    assert _engine.idle_cores() == cores - 1  # a task now and at the last reading: busy
-    monkeypatch.setattr(_engine, "_READINGS", collections.deque(maxlen=16))
-    assert _engine.idle_cores() == cores - 1  # no earlier reading: two readings, both busy
+    monkeypatch.setattr(engine_cores, "_other_tasks", lambda: next(readings))
+    monkeypatch.setattr(engine_cores, "_READINGS", collections.deque(maxlen=16))
+    monkeypatch.setattr(engine_cores, "_SETTLE", 0.0)
+    assert engine_cores.idle_cores() == cores  # alone
+    assert engine_cores.idle_cores() == cores  # a task now, none a moment ago: a passing one
+    assert engine_cores.idle_cores() == cores  # alone again
+    assert engine_cores.idle_cores() == cores  # a task, none at the last reading
+    assert engine_cores.idle_cores() == cores - 1  # a task now and at the last reading: busy
+    monkeypatch.setattr(engine_cores, "_READINGS", collections.deque(maxlen=16))
+    assert engine_cores.idle_cores() == cores - 1  # no earlier reading: two readings, both busy

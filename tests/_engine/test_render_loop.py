@@ -16,6 +16,8 @@ from napari_labyrinth import (
     labyrinth_sweep,
     resolve_parameters,
 )
+from napari_labyrinth._engine import render_loop
+from napari_labyrinth._engine.changes import gather_changes
 
 
 @pytest.fixture(scope="module")
@@ -75,20 +77,20 @@ def test_bad_arguments_are_refused_at_the_call_not_at_the_first_step(camera):
 @pytest.mark.parametrize("workers", [1, 2])
 def test_closing_cancels_within_one_pass_and_leaves_nothing_running(camera, workers, monkeypatch):
     calls = []
-    real = _engine.run_pass
+    real = render_loop.run_pass
 
     def counting_pass(*args, **kwargs):
         calls.append(threading.current_thread().name)
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(_engine, "run_pass", counting_pass)
-    real_banded = _engine._banded_pass  # integer planes on one thread each
+    monkeypatch.setattr(render_loop, "run_pass", counting_pass)
+    real_banded = render_loop.banded_pass  # integer planes on one thread each
 
     def counting_banded_pass(*args, **kwargs):
         calls.append(threading.current_thread().name)
         return real_banded(*args, **kwargs)
 
-    monkeypatch.setattr(_engine, "_banded_pass", counting_banded_pass)
+    monkeypatch.setattr(render_loop, "banded_pass", counting_banded_pass)
     stack = np.stack([data.camera()] * 8)  # ~5 ms a pass: the run takes far longer than close()
     steps = labyrinth_steps(stack, passes=4, workers=workers)
     first = next(steps)
@@ -110,8 +112,8 @@ def test_an_error_in_a_plane_reaches_the_caller_and_stops_the_pool(camera, monke
     def failing_pass(*args, **kwargs):
         raise MemoryError("no room")
 
-    monkeypatch.setattr(_engine, "run_pass", failing_pass)
-    monkeypatch.setattr(_engine, "_banded_pass", failing_pass)  # integer planes on one thread
+    monkeypatch.setattr(render_loop, "run_pass", failing_pass)
+    monkeypatch.setattr(render_loop, "banded_pass", failing_pass)  # integer planes on one thread
     with pytest.raises(MemoryError, match="no room"):
         list(labyrinth_steps(np.stack([camera] * 4), workers=2))
     assert not [t for t in threading.enumerate() if t.name.startswith("napari-labyrinth")]
@@ -227,24 +229,24 @@ def test_more_changes_than_noted_fall_back_to_visiting_every_pixel(monkeypatch, 
     image = (_noisy_plane((40, 50), seed=3) * 200).astype(np.uint16)
     want = labyrinth_stack(image, passes=2)
     if not banded:
-        monkeypatch.setattr(_engine, "_banded_render", lambda *arguments: False)
+        monkeypatch.setattr(render_loop, "_banded_render", lambda *arguments: False)
     for room in (0, 1, 5):  # no room, or past it during the first or the second pass
         room_for = lambda pixels, room=room: np.zeros(room + 1, np.int64)  # noqa: E731
-        monkeypatch.setattr(_engine, "new_changes", room_for)
+        monkeypatch.setattr(render_loop, "new_changes", room_for)
         np.testing.assert_array_equal(labyrinth_stack(image, passes=2), want)
 
 
 def test_the_threads_notes_are_gathered_unless_they_do_not_fit():
     parts = [np.array([1, 7, 0]), np.array([2, 8, 9])]  # one write noted, then two
     changes = np.zeros(4, np.int64)
-    _engine._gather_changes(changes, parts)
+    gather_changes(changes, parts)
     np.testing.assert_array_equal(_engine.listed_changes(changes), [7, 8, 9])
     changes = np.zeros(3, np.int64)
-    _engine._gather_changes(changes, parts)
+    gather_changes(changes, parts)
     assert _engine.listed_changes(changes) is None
     overflowed = np.array([5, 1, 2], np.int64)  # five writes, room for two
     changes = np.zeros(10, np.int64)
-    _engine._gather_changes(changes, [overflowed])
+    gather_changes(changes, [overflowed])
     assert _engine.listed_changes(changes) is None
 
 
@@ -263,7 +265,7 @@ def narrow_bands(monkeypatch):
 def _unbanded(monkeypatch, render, *args, **kwargs):
     """``render(*args, **kwargs)`` with the tones, passes and write-back each over the plane."""
     with monkeypatch.context() as patched:
-        patched.setattr(_engine, "_banded_render", lambda *arguments: False)
+        patched.setattr(render_loop, "_banded_render", lambda *arguments: False)
         return render(*args, **kwargs)
 
 
@@ -289,7 +291,7 @@ def test_the_banded_pass_equals_the_whole_plane_path(monkeypatch, dtype, limits,
     plane = _noisy_plane(shape, seed=shape[0]) / 255.0
     image = (info.min + plane * (min(info.max, 2**20) - info.min)).astype(dtype)
     options = dict(preset=preset, passes=passes, tone_limits=limits, workers=1, seed=5)
-    assert _engine._banded_render(image, image, [()], resolve_parameters(preset), 1)
+    assert render_loop._banded_render(image, image, [()], resolve_parameters(preset), 1)
     got, got_counts = labyrinth(image, return_diagnostics=True, **options)
     want, want_counts = _unbanded(monkeypatch, labyrinth, image, return_diagnostics=True,
                                   **options)  # fmt: skip
@@ -327,15 +329,15 @@ def test_stacks_and_alpha_are_banded_too(monkeypatch):
 def test_planes_the_bands_cannot_take_take_the_whole_plane_path():
     parameters = resolve_parameters("paper")
     image = np.zeros((300, 300), np.uint16)
-    assert _engine._banded_render(image, image, [()], parameters, 1)
-    assert not _engine._banded_render(image, image, [()], parameters, 2)  # tiles
+    assert render_loop._banded_render(image, image, [()], parameters, 1)
+    assert not render_loop._banded_render(image, image, [()], parameters, 2)  # tiles
     floats = image.astype(np.float32)
-    assert not _engine._banded_render(floats, floats, [()], parameters, 1)
+    assert not render_loop._banded_render(floats, floats, [()], parameters, 1)
     checkerboard = resolve_parameters("paper", scan="checkerboard")
-    assert not _engine._banded_render(image, image, [()], checkerboard, 1)
+    assert not render_loop._banded_render(image, image, [()], checkerboard, 1)
     strided = np.zeros((300, 600), np.uint16)[:, ::2]
-    assert not _engine._banded_render(strided, strided, [()], parameters, 1)
-    assert not _engine._banded_render(image, image, [()], resolve_parameters(passes=0), 1)
+    assert not render_loop._banded_render(strided, strided, [()], parameters, 1)
+    assert not render_loop._banded_render(image, image, [()], resolve_parameters(passes=0), 1)
 
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16])

@@ -1,0 +1,72 @@
+"""The pixels a pass writes: noted by the kernel, gathered from threads, written back as values.
+
+A list of changes is an int64 array: ``changes[0]`` counts the writes and
+``changes[1:]`` holds the flat indices of the first ones (see
+``core._kernel.labyrinth_pass``). Where every write fits, the write-back
+visits only those pixels; past the room, it visits every pixel.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.tone_scale import ToneScale, write_changed_values, write_listed_values
+
+
+def new_changes(pixels: int) -> np.ndarray:
+    """An empty list of written pixels for ``run_pass`` on a plane of ``pixels`` pixels.
+
+    ``changes[0]`` counts the writes, ``changes[1:]`` holds the first ones'
+    flat indices: room for a few percent of the plane (a pass writes far
+    fewer pixels than it keeps); past it the write-back visits every pixel.
+    """
+    capacity = 0 if pixels == 0 else max(4096, pixels // 16)
+    changes = np.empty(capacity + 1, dtype=np.int64)
+    changes[0] = 0
+    return changes
+
+
+def listed_changes(changes: np.ndarray) -> np.ndarray | None:
+    """The flat indices noted in ``changes``; None if they did not all fit."""
+    written = int(changes[0])
+    return changes[1 : written + 1] if written < changes.shape[0] else None
+
+
+def empty_copies(changes: np.ndarray, count: int) -> list[np.ndarray]:
+    """``count`` empty lists of written pixels with the room of ``changes``."""
+    copies = [np.empty_like(changes) for _ in range(count)]
+    for copy in copies:
+        copy[0] = 0
+    return copies
+
+
+def gather_changes(changes: np.ndarray, parts: list[np.ndarray]) -> None:
+    """Append to ``changes`` those that threads noted in lists of their own (``parts``)."""
+    for part in parts:
+        listed = listed_changes(part)
+        written = int(changes[0])
+        if listed is None or written + len(listed) >= changes.shape[0]:
+            changes[0] = changes.shape[0]  # more than fit: visit every pixel
+            continue
+        changes[written + 1 : written + 1 + len(listed)] = listed
+        changes[0] = written + len(listed)
+
+
+def write_back_changes(target, values, initial, work, scale, changes) -> None:
+    """The changed tones' values into ``target``: fused for an integer plane (no ``initial``),
+    at the pixels the passes wrote if ``changes`` holds them all."""
+    listed = None if changes is None else listed_changes(changes)
+    if listed is not None:
+        write_listed_values(scale, target, values, work, listed)
+    elif initial is None:
+        write_changed_values(scale, target, values, work)
+    else:
+        write_changes(target, initial, work, scale)
+
+
+def write_changes(
+    target: np.ndarray, initial: np.ndarray, work: np.ndarray, scale: ToneScale
+) -> None:
+    """Map back into ``target`` (holding the source values) the tones that changed."""
+    changed = initial.view(np.uint32) != work.view(np.uint32)
+    target[changed] = scale.from_tones(work[changed], target.dtype)
