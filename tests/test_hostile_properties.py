@@ -20,7 +20,7 @@ import os
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -29,12 +29,14 @@ from napari_labyrinth.core.parameters import PARAMETERS, SEED
 from napari_labyrinth.core.tone_scale import SUPPORTED_DTYPES
 
 EXAMPLES = int(os.environ.get("HOSTILE_EXAMPLES", "2000"))
+#: The examples run in this many tests of their own (one seed each unless HOSTILE_SEED is
+#: set), so that the test processes share them.
+SHARDS = 4
 
 FUZZ = settings(
-    max_examples=EXAMPLES,
+    max_examples=max(1, EXAMPLES // SHARDS),
     deadline=None,
     suppress_health_check=list(HealthCheck),
-    derandomize=os.environ.get("HOSTILE_SEED") is None,
     database=None,
 )
 
@@ -119,11 +121,17 @@ def _same(a: np.ndarray, b: np.ndarray) -> bool:
     return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
 
 
-@FUZZ
-@given(case=images(), kwargs=options(), colour=st.sampled_from([None, "channels", "luminance"]))
-def test_any_small_image_renders_cleanly_or_is_refused_with_a_value_or_type_error(
-    case, kwargs, colour
-):
+@pytest.mark.parametrize("shard", range(SHARDS))
+def test_any_small_image_renders_cleanly_or_is_refused_with_a_value_or_type_error(shard):
+    check = given(
+        case=images(), kwargs=options(), colour=st.sampled_from([None, "channels", "luminance"])
+    )(_renders_cleanly_or_is_refused)
+    if os.environ.get("HOSTILE_SEED") is None:
+        check = seed(shard)(check)  # the same examples on every run
+    FUZZ(check)()
+
+
+def _renders_cleanly_or_is_refused(case, kwargs, colour):
     image, channel_axis, alpha = case
     before = image.copy()
     call = dict(kwargs, channel_axis=channel_axis, alpha=alpha, colour=colour)
