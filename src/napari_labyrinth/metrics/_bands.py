@@ -7,7 +7,6 @@ time (:func:`_in_bands`); the kernels' results do not depend on the bands.
 
 from __future__ import annotations
 
-import _thread
 import os
 import threading
 from collections.abc import Callable
@@ -15,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .._threads import start_helper
 from ..core.parameters import WORKERS
 
 #: Rows per band below which a plane is not split into more bands.
@@ -81,10 +81,8 @@ def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) ->
                     changed.notify_all()
 
     for _ in range(min(workers, count) - 1):
-        try:
-            _thread.start_new_thread(work, ())
-        except RuntimeError:  # no thread to be had: the calling thread takes its bands
-            break
+        # not waited for: a helper that has no thread, or starts late, finds the bands taken
+        start_helper(work)
     work()
     with changed:
         changed.wait_for(lambda: state["running"] == 0)
