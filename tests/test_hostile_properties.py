@@ -121,6 +121,7 @@ def _same(a: np.ndarray, b: np.ndarray) -> bool:
     return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shard", range(SHARDS))
 def test_any_small_image_renders_cleanly_or_is_refused_with_a_value_or_type_error(shard):
     check = given(

@@ -120,6 +120,7 @@ def test_a_declared_huge_tiff_is_refused_in_one_line_within_a_memory_ceiling(tmp
     assert not (tmp_path / "out.tif").exists()
 
 
+@pytest.mark.slow  # a 900 MB row stream compressed to make the file
 def test_a_declared_huge_png_is_refused_before_decoding(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv(MEMORY_ENV, "256M")
     path = tmp_path / "wide.png"

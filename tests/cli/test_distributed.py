@@ -28,6 +28,9 @@ from napari_labyrinth.io import read_image, write_image
 
 from .test_cli_chunked import API_OPTIONS, OPTIONS, error_lines, store, textured
 
+#: A local cluster of worker processes, started and stopped by the tests.
+pytestmark = pytest.mark.subprocess
+
 #: Processes multiprocessing keeps for the life of this process (not a cluster's).
 HELPERS = ("multiprocessing.resource_tracker", "multiprocessing.forkserver")
 
