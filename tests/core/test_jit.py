@@ -106,70 +106,63 @@ def test_compiling_names_the_kernel_numba_compiles_now(tmp_path):
     assert _jit.compiling() is None
 
 
+KERNEL_HEAD = "from napari_labyrinth.core._jit import cached_njit\n"
+PAIR = "from typing import NamedTuple\n\nclass Pair(NamedTuple):\n    first: int\n    second: int\n"
+PAIR_KERNEL = (
+    KERNEL_HEAD + "from arguments import Pair  # noqa: F401\n\n"
+    "@cached_njit()\ndef kernel(pair):\n    return pair.first - pair.second\n"
+)
+
+
+def _kernels(tmp_path, files: dict[str, str]):
+    """Modules ``files`` (name -> source) in a directory of their own, and a function that
+    runs ``code`` in a new Python process importing from there, with one numba cache."""
+    package = tmp_path / "kernels"
+    package.mkdir()
+    for name, source in files.items():
+        (package / f"{name}.py").write_text(source)
+    path = [str(package), *filter(None, [os.environ.get("PYTHONPATH")])]
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=os.pathsep.join(path))
+
+    def run(code: str) -> str:
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+        assert done.returncode == 0, done.stderr
+        return done.stdout.strip()
+
+    return package, run
+
+
+def _edit_keeping_stamp(path, old: str, new: str) -> None:
+    """Replace ``old`` by ``new`` (the same length) in ``path``, its time left as it was
+    (as a reinstall may leave it): numba's own stamp sees no change."""
+    stamp = path.stat()
+    path.write_text(path.read_text().replace(old, new))
+    os.utime(path, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))
+
+
 @pytest.mark.subprocess
 def test_a_change_to_a_helper_in_another_file_compiles_its_kernel_again(tmp_path):
     """numba's own stamp is the kernel's file's time and size: a helper of another file,
     compiled into the kernel, changed to text of the same size, went unseen."""
-    package = tmp_path / "kernels"
-    package.mkdir()
-    (package / "helper.py").write_text("from numba import njit\n\n@njit\ndef helper(x):\n    return x + 1\n")
-    (package / "kernel.py").write_text(
-        "from napari_labyrinth.core._jit import cached_njit\n"
-        "from helper import helper\n\n"
-        "@cached_njit()\n"
-        "def kernel(x):\n    return helper(x)\n"
-    )
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=os.pathsep.join(
-        [str(package), *filter(None, [os.environ.get("PYTHONPATH")])]))
-
-    def result():
-        run = subprocess.run(
-            [sys.executable, "-c", "from kernel import kernel; print(kernel(1))"],
-            capture_output=True, text=True, env=env, check=True,
-        )  # fmt: skip
-        return run.stdout.strip()
-
-    assert result() == "2"
-    helper = package / "helper.py"
-    stamp = helper.stat()
-    helper.write_text(helper.read_text().replace("x + 1", "x + 5"))
-    os.utime(helper, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))  # as a reinstall may leave it
-    assert result() == "6"
+    package, run = _kernels(tmp_path, {
+        "helper": "from numba import njit\n\n@njit\ndef helper(x):\n    return x + 1\n",
+        "kernel": KERNEL_HEAD + "from helper import helper\n\n"
+        "@cached_njit()\ndef kernel(x):\n    return helper(x)\n",
+    })  # fmt: skip
+    assert run("from kernel import kernel; print(kernel(1))") == "2"
+    _edit_keeping_stamp(package / "helper.py", "x + 1", "x + 5")
+    assert run("from kernel import kernel; print(kernel(1))") == "6"
 
 
 @pytest.mark.subprocess
 def test_a_named_tuple_argument_with_fields_moved_compiles_its_kernel_again(tmp_path):
     """numba's cache index knows a NamedTuple by its class and its fields' types, not its
     fields' names: a kernel that imports its argument's class has that file in its stamp."""
-    package = tmp_path / "kernels"
-    package.mkdir()
-    arguments = package / "arguments.py"
-    arguments.write_text(
-        "from typing import NamedTuple\n\n"
-        "class Pair(NamedTuple):\n    first: int\n    second: int\n"
-    )
-    (package / "kernel.py").write_text(
-        "from napari_labyrinth.core._jit import cached_njit\n"
-        "from arguments import Pair  # noqa: F401\n\n"
-        "@cached_njit()\n"
-        "def kernel(pair):\n    return pair.first - pair.second\n"
-    )
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=os.pathsep.join(
-        [str(package), *filter(None, [os.environ.get("PYTHONPATH")])]))
-
-    def result():
-        run = subprocess.run(
-            [sys.executable, "-c", "from kernel import kernel, Pair; print(kernel(Pair(5, 2)))"],
-            capture_output=True, text=True, env=env, check=True,
-        )  # fmt: skip
-        return run.stdout.strip()
-
-    assert result() == "3"
-    stamp = arguments.stat()
-    moved = arguments.read_text().replace("first: int\n    second", "second: int\n    first")
-    arguments.write_text(moved)  # the same size, and the same time below
-    os.utime(arguments, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))
-    assert result() == "-3"
+    package, run = _kernels(tmp_path, {"arguments": PAIR, "kernel": PAIR_KERNEL})
+    call = "from kernel import kernel, Pair; print(kernel(Pair(5, 2)))"
+    assert run(call) == "3"
+    _edit_keeping_stamp(package / "arguments.py", "first: int\n    second", "second: int\n    first")
+    assert run(call) == "-3"
 
 
 def test_compiled_for_calls_the_kernel_s_code_for_the_same_types(tmp_path):
@@ -203,33 +196,10 @@ def test_compiled_for_calls_the_kernel_s_code_for_the_same_types(tmp_path):
 def test_an_index_naming_a_class_no_longer_there_reads_as_stale(tmp_path):
     """numba unpickles a kernel's cache index before it compares the stamp: a NamedTuple
     argument moved to another module since the index was written must not raise."""
-    package = tmp_path / "kernels"
-    package.mkdir()
-    pair = (
-        "from typing import NamedTuple\n\n"
-        "class Pair(NamedTuple):\n    first: int\n    second: int\n"
-    )
-    (package / "arguments.py").write_text(pair)
+    package, run = _kernels(tmp_path, {"arguments": PAIR, "kernel": PAIR_KERNEL})
+    call = "from kernel import kernel, Pair; print(kernel(Pair(5, 2)))"
+    assert run(call) == "3"
+    (package / "arguments.py").rename(package / "shapes.py")
     kernel = package / "kernel.py"
-    kernel.write_text(
-        "from napari_labyrinth.core._jit import cached_njit\n"
-        "from arguments import Pair  # noqa: F401\n\n"
-        "@cached_njit()\n"
-        "def kernel(pair):\n    return pair.first - pair.second\n"
-    )
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=os.pathsep.join(
-        [str(package), *filter(None, [os.environ.get("PYTHONPATH")])]))
-
-    def result():
-        run = subprocess.run(
-            [sys.executable, "-c", "from kernel import kernel, Pair; print(kernel(Pair(5, 2)))"],
-            capture_output=True, text=True, env=env,
-        )  # fmt: skip
-        assert run.returncode == 0, run.stderr
-        return run.stdout.strip()
-
-    assert result() == "3"
-    (package / "arguments.py").unlink()
-    (package / "shapes.py").write_text(pair)
     kernel.write_text(kernel.read_text().replace("from arguments", "from shapes"))
-    assert result() == "3"
+    assert run(call) == "3"
