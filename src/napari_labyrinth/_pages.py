@@ -7,15 +7,10 @@ planes, is new memory on every call, and the render threads make its first
 touches as they write its planes. On a virtual machine that hands free memory
 back to its host (the virtio balloon's free page reporting), a first touch of a
 huge page is sometimes very slow, and while the render threads were taking
-such pages napari's event loop stalled for 100 to 180 ms (``bench_widget.py``,
-20 planes of 2048², 4 of 20 runs at about 1.5 s into the run; none in 20 runs
-with the result in plain pages). Plain 4 kB pages cost a steady ~0.4 ms a MB of
-page faults, spread over the render threads; huge pages cost less when they come
-fast and about 1.8 ms a MB when they come slowly. The trade, measured in a
-quiet process: a 2048² stack of 4 passes (a 40 MB result) takes 242-244 ms
-against 225-232 ms in huge pages (a second call in a process), 8 planes of
-2048² (64 MB) 1542-1559 ms against 1561-1610 ms, 20 planes under 2 % of their
-render.
+such pages napari's event loop stalled. Plain 4 kB pages cost a steady, small
+price in page faults, spread over the render threads; huge pages cost less when
+they come fast and more when they come slowly. The stalls and the trade, as
+measured, are in docs/performance.md ("Memory pages of large results").
 
 Smaller arrays keep numpy's advice: malloc gives their memory back to the next
 array of their size, already touched, and the speed of a single plane's render

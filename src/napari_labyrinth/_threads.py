@@ -1,7 +1,7 @@
 """Helper threads that start without waiting: the package's one thread primitive.
 
-``threading.Thread.start()`` waits until the new thread runs: 0.1-0.2 ms, and
-milliseconds when its core is busy. Work split among threads that the caller
+``threading.Thread.start()`` waits until the new thread runs, for long when its
+core is busy. Work split among threads that the caller
 joins (it takes a share itself) need not wait for that: :func:`start_helper`
 starts a thread and returns at once, with a lock released when the thread's
 work is done.

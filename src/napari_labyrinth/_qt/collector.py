@@ -3,7 +3,8 @@
 A full collection (generation 2) of Python's cyclic garbage collector walks
 every object the process holds, with the GIL held. In a napari viewer that is
 some 240,000 objects before this plugin loads and about 340,000 after its first
-run (numba, dask, scikit-image): 100–200 ms on a 2-core machine. Python starts
+run (numba, dask, scikit-image): a tenth of a second or more on two cores
+(docs/architecture.md, "The event loop during a run"). Python starts
 one by itself whenever enough objects have survived the younger collections,
 in whichever thread happens to allocate; during a run that is the rendering
 thread as often as the main one, and either way the event loop stalls for the

@@ -28,9 +28,8 @@ from ._kernel_arguments import PassRegion  # its file, the arguments', is in the
 from ._tone_loops import _tone
 from .codes import WRAP
 
-#: Bytes of tones in a band: with its values, inside a core's own (level 2) cache. Each
-#: band costs a few µs beyond its rows: at 2048² (paper, one pass) bands of 128 rows
-#: take 0.2-0.3 ms less than bands of 32 (2**18 bytes), 2**21 bytes no less than 2**20.
+#: Bytes of tones in a band: with its values, inside a core's own (level 2) cache; each
+#: band costs a little beyond its rows, so bands are not made smaller (docs/performance.md).
 _BAND_BYTES = 1 << 20
 
 

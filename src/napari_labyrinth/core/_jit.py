@@ -19,7 +19,7 @@ names a NamedTuple class no longer there (moved since it was written) reads
 as stale, instead of raising.
 
 numba's dispatcher types every argument of every call, a NamedTuple on its
-Python route (about 2 µs each); :func:`compiled_for` gives a caller that
+Python route; :func:`compiled_for` gives a caller that
 calls a kernel many times with arguments of the same types its compiled code
 to call without that.
 """

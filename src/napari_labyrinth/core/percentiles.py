@@ -33,7 +33,7 @@ def linear_ranks(count: int, q: Sequence[float]) -> tuple[list[int], np.ndarray]
 @functools.lru_cache(maxsize=64)
 def _linear_ranks(count: int, q: tuple[float, ...]) -> tuple[list[int], np.ndarray]:
     """:func:`linear_ranks` of one image size and percentiles, computed once (a dozen
-    numpy steps on a few values: ~50 µs after an image's copy)."""
+    numpy steps on a few values, slow beside an image's copy)."""
     quantiles = np.true_divide(tuple(q), 100)
     virtual = (count - 1) * quantiles
     previous = np.floor(virtual)
@@ -136,7 +136,7 @@ def ranked_percentiles(ranked: Sequence[int], gammas: np.ndarray, dtype) -> list
 
     Where each difference ``next - previous`` holds in ``dtype`` (always for
     unsigned integers) the same float64 operations in Python's floats (no numpy
-    step on a few values, ~50 µs after an image's copy); else numpy's, whose
+    step on a few values, slow beside an image's copy); else numpy's, whose
     differences wrap around in ``dtype``.
     """
     info = np.iinfo(dtype)

@@ -50,8 +50,8 @@ def _in_bands(kernel: Callable, height: int, workers: int | None, *arguments) ->
 
     The calling thread starts on the bands at once and waits only for the
     bands other threads took: a helper thread that runs late (its core
-    busy: a thread's start waits 0.2 ms for it to run, milliseconds when
-    the other core is busy) finds the bands taken and ends without work.
+    busy: a thread's start waits for it to run, the longer the busier the
+    other core) finds the bands taken and ends without work.
     """
     workers = _default_workers() if workers is None else max(1, int(workers))
     if workers == 1 or height < 2 * _MIN_BAND_ROWS:
@@ -97,8 +97,8 @@ def _guided_edges(height: int, workers: int) -> list[int]:
     Each band takes ``1 / (_SHARES_PER_WORKER * workers)`` of the rows left (at
     least ``_MIN_BAND_ROWS``; the last takes a remainder shorter than that
     too). Equal bands leave the threads waiting for the last one taken, whose
-    work varies with the walls in it (a 2048² plane's wall pass in 8 bands
-    left up to 17 ms of one of two cores idle); here the threads end within
+    work varies with the walls in it (a core then idles at the end of a wall
+    pass); here the threads end within
     one short band of each other, at the cost of a few more bands (11 for
     2048 rows on 2 threads, each with its rows of margin).
     """
