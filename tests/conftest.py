@@ -1,5 +1,11 @@
 import os
+import signal
 import tempfile
+
+# A shell starts a background job with Ctrl-C ignored, and Python then leaves SIGINT
+# ignored: the tests of interrupts need Python's own handler, as in a terminal.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # napari and Qt write settings and caches here: keep them out of the user's home.
 _scratch = tempfile.mkdtemp(prefix="napari-labyrinth-tests-")
