@@ -1,49 +1,24 @@
-"""Sample images: synthetic liquid-crystal textures and two scikit-image photographs.
-
-The synthetic textures are what liquid-crystal researchers put under a
-polarising microscope, the kind of pattern the labyrinthine tiling evokes:
-
-- :func:`nematic_schlieren`: a nematic film with point defects between
-  crossed polarisers (dark brushes meeting at the defects);
-- :func:`cholesteric_fingerprint`: the stripes of a cholesteric whose helix
-  axis lies in the plane of the film.
-
-Three more stand for the images on which one variance threshold does not
-serve all (dark backgrounds, noise, bright low contrast):
-
-- :func:`smectic_batonnets`: bright elongated germs of a smectic phase
-  growing in a dark isotropic melt, between crossed polarisers (a near-black
-  background, as in dark-field or fluorescence microscopy);
-- :func:`fluorescence_stack`: a noisy 16-bit time-lapse of fluorescent cells
-  (Poisson and read noise on a dim background);
-- :func:`bright_fingerprint`: a cholesteric fingerprint seen in bright field,
-  low contrast on a bright background.
-
-They depend on numpy and scipy only and are deterministic for a given seed.
-:func:`camera` and :func:`cell` return scikit-image's images (imported on
-first use, so importing this module stays light).
-"""
+"""Synthetic liquid-crystal textures as seen between crossed polarisers: nematic Schlieren,
+cholesteric fingerprints (dark and bright field) and smectic bâtonnets."""
 
 from __future__ import annotations
 
 import numbers
-from collections.abc import Callable, Sequence
-from typing import Any
+from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = [
-    "SAMPLES",
-    "bright_fingerprint",
-    "camera",
-    "cell",
-    "cholesteric_fingerprint",
-    "fluorescence_stack",
-    "smectic_batonnets",
-    "director_angle",
-    "nematic_schlieren",
-    "schlieren_defects",
-]
+from ._shared import (
+    _box,
+    _is_finite_real,
+    _spread_points,
+    _validate_defects,
+    _validate_noise,
+    _validate_retardance,
+    _validate_seed,
+    _validate_shape,
+    _zero_sum_strengths,
+)
 
 #: Strengths a seeded defect may take (topological charges of a nematic).
 DEFECT_STRENGTHS = (-1.0, -0.5, 0.5, 1.0)
@@ -369,64 +344,6 @@ def smectic_batonnets(
     return np.clip(np.rint(counts), 0, 255).astype(np.uint8)
 
 
-def fluorescence_stack(
-    shape: tuple[int, int] = (512, 512), *, planes: int = 4, seed: int = 0
-) -> np.ndarray:
-    """A noisy 16-bit time-lapse of fluorescent cells.
-
-    Parameters
-    ----------
-    shape : (int, int), optional
-        Plane shape ``(rows, columns)``.
-    planes : int, optional
-        Time points (>= 1); the cells drift and dim slowly between them.
-    seed : int, optional
-        Seed of the random generator; the same seed gives the same stack.
-
-    Returns
-    -------
-    stack : (planes, rows, columns) uint16 ndarray
-        Camera counts: an offset of 100, a dim uneven background, cells of a
-        few hundred counts with bright nuclei and filaments, Poisson (shot)
-        and Gaussian read noise.
-
-    Examples
-    --------
-    >>> from napari_labyrinth.samples import fluorescence_stack
-    >>> stack = fluorescence_stack((96, 96), planes=2)
-    >>> stack.shape, stack.dtype
-    ((2, 96, 96), dtype('uint16'))
-    """
-    from scipy import ndimage
-
-    rows, columns = _validate_shape(shape)
-    if not isinstance(planes, numbers.Integral) or isinstance(planes, bool) or planes < 1:
-        raise ValueError(f"planes must be an integer >= 1, got {planes!r}")
-    rng = np.random.default_rng(_validate_seed(seed))
-    count = max(2, int(round(rows * columns / 90.0**2)))
-    centres = np.column_stack([rng.uniform(0, rows, count), rng.uniform(0, columns, count)])
-    radii = rng.uniform(14, 30, count)
-    drift = rng.normal(0.0, 1.5, (count, 2))
-    fibres = ndimage.gaussian_filter(rng.normal(size=(rows, columns)), 3.0)
-    fibres = np.abs(fibres) < 0.08 * fibres.std() * 4  # thin meandering lines
-    background = 30.0 * ndimage.gaussian_filter(rng.random((rows, columns)), 40.0, mode="wrap")
-    stack = np.empty((int(planes), rows, columns), np.uint16)
-    for t in range(int(planes)):
-        signal = background.copy()
-        for (cy, cx), radius, (dy, dx) in zip(centres, radii, drift):
-            cy, cx = cy + t * dy, cx + t * dx
-            box = _box(cy, cx, 2.0 * radius, rows, columns)
-            y, x = np.mgrid[box].astype(np.float64)
-            distance = np.hypot(y - cy, x - cx) / radius
-            cytoplasm = 1.0 / (1.0 + np.exp(np.minimum((distance - 1.0) * 10.0, 50.0)))
-            nucleus = 1.0 / (1.0 + np.exp(np.minimum((distance - 0.4) * 14.0, 50.0)))
-            signal[box] += cytoplasm * (150.0 + 250.0 * fibres[box]) + nucleus * 700.0
-        signal *= 0.97**t  # photobleaching
-        counts = rng.poisson(signal) + rng.normal(100.0, 6.0, signal.shape)
-        stack[t] = np.clip(np.rint(counts), 0, 65535).astype(np.uint16)
-    return stack
-
-
 def bright_fingerprint(
     shape: tuple[int, int] = (512, 512), *, seed: int = 0, pitch: float = 14.0
 ) -> np.ndarray:
@@ -462,102 +379,6 @@ def bright_fingerprint(
     illumination = 1.0 - 0.06 * ((y - 0.4) ** 2 + (x - 0.6) ** 2)
     tones = illumination * (188.0 + 40.0 * stripes) + rng.normal(0.0, 2.0, stripes.shape)
     return np.clip(np.rint(tones), 0, 255).astype(np.uint8)
-
-
-def camera() -> np.ndarray:
-    """The ``camera`` photograph of scikit-image (512 x 512, uint8).
-
-    Returns
-    -------
-    image : (512, 512) uint8 ndarray
-    """
-    from skimage import data
-
-    return np.asarray(data.camera())
-
-
-def cell() -> np.ndarray:
-    """The ``cell`` micrograph of scikit-image (uint8, grey).
-
-    Returns
-    -------
-    image : 2-D uint8 ndarray
-    """
-    from skimage import data
-
-    return np.asarray(data.cell())
-
-
-#: Sample name -> zero-argument callable returning the image.
-SAMPLES: dict[str, Callable[[], np.ndarray]] = {
-    "nematic_schlieren": nematic_schlieren,
-    "cholesteric_fingerprint": cholesteric_fingerprint,
-    "camera": camera,
-    "cell": cell,
-}
-
-
-# -- helpers --------------------------------------------------------------------------------------
-
-
-def _is_finite_real(value: Any) -> bool:
-    return (
-        isinstance(value, numbers.Real)
-        and not isinstance(value, (bool, np.bool_))
-        and bool(np.isfinite(value))
-    )
-
-
-def _validate_shape(shape: Any) -> tuple[int, int]:
-    if isinstance(shape, (str, bytes)) or not hasattr(shape, "__len__") or len(shape) != 2:
-        raise TypeError(f"shape must be (rows, columns), got {shape!r}")
-    if not all(isinstance(n, numbers.Integral) and not isinstance(n, bool) for n in shape):
-        raise TypeError(f"shape must hold integers, got {shape!r}")
-    rows, columns = (int(n) for n in shape)
-    if rows < 1 or columns < 1:
-        raise ValueError(f"shape must be positive, got {shape!r}")
-    return rows, columns
-
-
-def _validate_seed(seed: Any) -> int:
-    if not isinstance(seed, numbers.Integral) or isinstance(seed, bool) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    return int(seed)
-
-
-def _validate_noise(noise: Any) -> float:
-    if not isinstance(noise, numbers.Real) or isinstance(noise, bool):
-        raise TypeError(f"noise must be a real number, got {noise!r}")
-    if not np.isfinite(noise) or noise < 0:
-        raise ValueError(f"noise must be finite and >= 0, got {noise!r}")
-    return float(noise)
-
-
-def _validate_defects(defects: Any) -> np.ndarray:
-    table = np.asarray(defects, dtype=np.float64)
-    if table.ndim != 2 or table.shape[1] != 3:
-        raise ValueError(f"defects must be rows (y, x, strength), got shape {table.shape}")
-    if not np.isfinite(table).all():
-        raise ValueError("defects must be finite")
-    doubled = 2.0 * table[:, 2]
-    if np.any(doubled == 0) or not np.allclose(doubled, np.round(doubled)):
-        raise ValueError(
-            f"defect strengths must be non-zero multiples of 1/2, got {table[:, 2].tolist()}"
-        )
-    return table
-
-
-def _validate_retardance(retardance: Any, shape: tuple[int, int]) -> np.ndarray:
-    field = np.asarray(retardance, dtype=np.float64)
-    try:
-        field = np.broadcast_to(field, shape)
-    except ValueError:
-        raise ValueError(
-            f"retardance must be a scalar or broadcastable to {shape}, got shape {field.shape}"
-        ) from None
-    if not np.isfinite(field).all():
-        raise ValueError("retardance must be finite")
-    return field
 
 
 def _fingerprint(shape: tuple[int, int], seed: int, pitch: float, noise: float) -> np.ndarray:
@@ -615,48 +436,3 @@ def _fingerprint(shape: tuple[int, int], seed: int, pitch: float, noise: float) 
     if noise:
         intensity += np.random.default_rng([seed, 1]).normal(0.0, noise, shape)
     return np.clip(intensity, 0.0, 1.0)
-
-
-def _box(cy: float, cx: float, reach: float, rows: int, columns: int) -> tuple[slice, slice]:
-    """The slices of the pixels within ``reach`` (rows and columns) of ``(cy, cx)``."""
-    top, bottom = max(0, int(cy - reach)), min(rows, int(cy + reach) + 2)
-    left, right = max(0, int(cx - reach)), min(columns, int(cx + reach) + 2)
-    return slice(top, max(top, bottom)), slice(left, max(left, right))
-
-
-def _zero_sum_strengths(rng: np.random.Generator, count: int) -> np.ndarray:
-    """``count`` strengths from DEFECT_STRENGTHS adding up to zero."""
-    halves = np.array([-2, -1, 1, 2])  # strengths in units of 1/2
-    # Half-integer defects are the common ones in nematic films: favour them.
-    weights = np.array([1.0, 2.0, 2.0, 1.0])
-    weights /= weights.sum()
-    for _ in range(1000):
-        draw = rng.choice(halves, size=count, p=weights)
-        if draw.sum() == 0:
-            return draw / 2.0
-    # Not reached in practice (each try succeeds with probability > 1/4 for
-    # count >= 2): opposite pairs, and one +1, -1/2, -1/2 triple for odd counts.
-    draw = np.resize([1, -1], count)
-    if count % 2:
-        draw[-3:] = [2, -1, -1]
-    return draw / 2.0
-
-
-def _spread_points(rng: np.random.Generator, count: int, rows: int, columns: int) -> np.ndarray:
-    """``count`` seeded points ``(y, x)``, kept apart and off the border when possible."""
-    margin_y, margin_x = 0.08 * rows, 0.08 * columns
-    spacing = 0.6 * np.sqrt(rows * columns / count)
-    points: list[tuple[float, float]] = []
-    for _ in range(200 * count):
-        if len(points) == count:
-            break
-        y = rng.uniform(margin_y, rows - 1 - margin_y)
-        x = rng.uniform(margin_x, columns - 1 - margin_x)
-        if all(np.hypot(y - py, x - px) >= spacing for py, px in points):
-            points.append((y, x))
-        else:
-            spacing *= 0.995  # relax slowly so that the loop always ends
-    while len(points) < count:
-        points.append((rng.uniform(0, rows - 1), rng.uniform(0, columns - 1)))
-    # Offset by a quarter pixel so that no defect sits exactly on a pixel centre.
-    return np.asarray(points) + 0.25
