@@ -27,11 +27,17 @@ to call without that.
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import inspect
 import pickle
 import threading
 import warnings
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows
+    fcntl = None
 
 from numba import njit
 
@@ -70,6 +76,7 @@ def cached_njit(**options):
         else:
             _stamp_with_sources(dispatcher)
             _read_unreadable_index_as_stale(dispatcher)
+            _lock_between_processes(dispatcher)
         return dispatcher
 
     return decorate
@@ -84,9 +91,16 @@ def _stamp_with_sources(dispatcher) -> None:
         return  # a numba whose cache differs: its own stamp stands
     digest = hashlib.sha256()
     for path in sorted(_source_files(dispatcher.py_func)):
-        with open(path, "rb") as source:
-            digest.update(path.encode() + b"\0" + source.read())
+        digest.update(path.encode() + b"\0" + _file_digest(path))
     cache_file._source_stamp = (cache_file._source_stamp, digest.hexdigest())
+
+
+@functools.lru_cache(maxsize=None)
+def _file_digest(path: str) -> bytes:
+    """The digest of ``path``'s contents, read once a process: the kernels of a module
+    and their helpers share their files."""
+    with open(path, "rb") as source:
+        return hashlib.sha256(source.read()).digest()
 
 
 def _read_unreadable_index_as_stale(dispatcher) -> None:
@@ -109,6 +123,38 @@ def _read_unreadable_index_as_stale(dispatcher) -> None:
             return {}
 
     cache_file._load_index = load_index_or_nothing
+
+
+def _lock_between_processes(dispatcher) -> None:
+    """Save and load ``dispatcher``'s cache holding a lock on its index file.
+
+    numba saves a new overload by writing its index (naming the first free data
+    file) and then the data: two processes compiling overloads of one kernel
+    (the variants of a factory share an index) may name the same data file, and
+    a load between the two writes reads the data file of an older index. Either
+    way a kernel would run another overload's code. The lock (``flock``, Linux
+    and macOS) makes each save and load whole.
+    """
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    index_path = getattr(cache_file, "_index_path", None)
+    if index_path is None or fcntl is None:
+        return  # a numba whose cache differs, or no flock: as it is
+    save, load = cache_file.save, cache_file.load
+
+    def locked(operation, mode):
+        def run(*arguments):
+            try:
+                lock = open(index_path + ".lock", "a")  # noqa: SIM115 - closed below
+            except OSError:  # no cache directory yet, or one this user cannot write
+                return operation(*arguments)
+            with lock:
+                fcntl.flock(lock, mode)  # released when the file closes
+                return operation(*arguments)
+
+        return run
+
+    cache_file.save = locked(save, fcntl.LOCK_EX)
+    cache_file.load = locked(load, fcntl.LOCK_SH)
 
 
 def _source_files(function, seen: set[str] | None = None) -> set[str]:
