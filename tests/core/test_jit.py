@@ -203,3 +203,42 @@ def test_an_index_naming_a_class_no_longer_there_reads_as_stale(tmp_path):
     kernel = package / "kernel.py"
     kernel.write_text(kernel.read_text().replace("from arguments", "from shapes"))
     assert run(call) == "3"
+
+
+FACTORY = KERNEL_HEAD + (
+    "from numba import njit\n\n"
+    "def made(step):\n"
+    "    @cached_njit()\n"
+    "    def kernel(x):\n        return x + step\n"
+    "    return kernel\n\n"
+    "ONE, HUNDRED = made(1), made(100)\n\n"
+    "@njit\ndef both(x):\n    return ONE(x) + HUNDRED(x)\n"
+)
+#: numba numbers the functions it compiles in each process from 0: two processes give
+#: the first function they compile the same number, as here.
+SAME_NUMBERS = (
+    "import itertools\nfrom numba.core.bytecode import FunctionIdentity\n"
+    "FunctionIdentity._unique_ids = itertools.count(10**6)\n"
+)
+
+
+@pytest.mark.subprocess
+def test_two_variants_of_a_factory_compiled_in_two_processes_keep_their_own_code(tmp_path):
+    """A variant cached by one process and another compiled by the next, both given
+    the same number by numba, were named alike: a caller of both ran one of them twice."""
+    _, run = _kernels(tmp_path, {"factory": FACTORY})
+    assert run(SAME_NUMBERS + "from factory import ONE; print(ONE(1))") == "2"
+    assert run(SAME_NUMBERS + "from factory import HUNDRED, both; HUNDRED(1); print(both(1))") == "103"
+
+
+def test_a_factory_s_kernel_is_named_by_the_values_it_closes_over():
+    def made(step, name):
+        def kernel(x):
+            return x + step if name else x
+
+        return kernel
+
+    _jit._name_by_closure(kernel := made(2, "two"))
+    assert kernel.__qualname__.endswith("kernel[name='two',step=2]")
+    with pytest.raises(TypeError, match=r"closes over step=2\.5.*bools, ints and strings"):
+        _jit._name_by_closure(made(2.5, "x"))

@@ -18,6 +18,15 @@ them compiles it again. numba reads the index before its stamp: an index that
 names a NamedTuple class no longer there (moved since it was written) reads
 as stale, instead of raising.
 
+numba names a kernel's compiled code by its qualified name, its argument types
+and a number counted up in each process, not by the values a kernel made by a
+factory closes over. Two variants of a factory compiled in two processes can
+get the same name; a process that then holds one compiled by itself and
+another loaded from the cache links whichever of the two bodies it sees first
+into every caller of either (numba issue #10486). ``cached_njit`` names such a
+kernel by those values (``labyrinth_pass[variance_decides_first=True,...]``),
+so that two variants never share a name.
+
 numba's dispatcher types every argument of every call, a NamedTuple on its
 Python route; :func:`compiled_for` gives a caller that
 calls a kernel many times with arguments of the same types its compiled code
@@ -66,6 +75,7 @@ def cached_njit(**options):
     """
 
     def decorate(function):
+        _name_by_closure(function)
         dispatcher = njit(**options)(function)
         try:
             dispatcher.enable_caching()
@@ -80,6 +90,30 @@ def cached_njit(**options):
         return dispatcher
 
     return decorate
+
+
+def _name_by_closure(function) -> None:
+    """Append the values ``function`` closes over to its qualified name, which numba's
+    compiled code and cache files are named by (see the module's docstring).
+
+    Raises
+    ------
+    TypeError
+        A closed-over value that is not a bool, an int or a string: its repr would
+        not name it the same way in every process.
+    """
+    if not function.__closure__:
+        return
+    values = []
+    for name, cell in zip(function.__code__.co_freevars, function.__closure__, strict=True):
+        value = cell.cell_contents
+        if not isinstance(value, (bool, int, str)):
+            raise TypeError(
+                f"{function.__qualname__} closes over {name}={value!r}: a kernel made by a "
+                "factory may close over bools, ints and strings only, which name its variant"
+            )
+        values.append(f"{name}={value!r}")
+    function.__qualname__ += "[" + ",".join(values) + "]"
 
 
 def _stamp_with_sources(dispatcher) -> None:
