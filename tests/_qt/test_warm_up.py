@@ -96,6 +96,8 @@ def test_a_run_waits_only_for_the_steps_it_needs(qtbot, viewer, slow_warm_up):
     widget.mode.value = "single"
     widget.run()  # the warm-up has ended: at once
     assert widget._waiting is None
+    # the run ends before the test: a worker still rendering holds the viewer at its close
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
 
 
 @pytest.mark.subprocess
