@@ -99,17 +99,17 @@ def banded_pass(
 ) -> None:
     """One pass of ``core._banded_pass.banded_pass`` over ``work``, the tones of ``values``:
     made in the first pass, and the values written into ``target`` unless it is None."""
-    from ..core._banded_pass import band_rows, banded_kernel  # numba is imported on first use only
+    from ..core import _banded_pass  # numba is imported on first use only
 
     kernel_parameters = pass_parameters(parameters)
-    kernel = banded_kernel(kernel_parameters.condition_order, kernel_parameters.include_centre)
     write_out = target is not None
     if not write_out:  # never written then, but typed as written: numba refuses a read-only
         target = np.empty((0, 0), values.dtype)  # array there (``values`` may be one)
     plane_pass = PlanePass(np.uint64(seed), int(plane_index), int(pass_index), False)
-    kernel(
-        values, target, work, band_rows(values.shape[1]), pass_index == 0, write_out,
-        integer_scale(scale, values.dtype), kernel_parameters, plane_pass, counts, changes,
+    _banded_pass.banded_pass(
+        values, target, work, _banded_pass.band_rows(values.shape[1]), pass_index == 0,
+        write_out, integer_scale(scale, values.dtype), kernel_parameters, plane_pass, counts,
+        changes, pass_kernel_for(kernel_parameters),
     )  # fmt: skip
 
 

@@ -1,7 +1,7 @@
 """One pass over an integer plane, band of rows by band of rows: tones in, values out.
 
 ``labyrinth_pass`` updates a float32 plane of tones. For an integer plane
-on one thread, ``banded_pass`` makes the tones of a band of rows just
+on one thread, :func:`banded_pass` makes the tones of a band of rows just
 before the kernel reaches them and writes the values of the rows the
 kernel has finished just after, while both are still in the processor's
 cache: one sweep over the image's memory instead of three (tones, pass,
@@ -22,8 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._jit import cached_njit
-from ._kernel import PASS_VARIANTS, variant_index
+from ._jit import cached_njit, compiled_for
 from ._kernel_arguments import PassRegion  # its file, the arguments', is in the cache stamp
 from ._tone_loops import _tone
 from .codes import WRAP
@@ -38,113 +37,120 @@ def band_rows(width: int) -> int:
     return max(4, _BAND_BYTES // (4 * max(1, width)))
 
 
-_pass_0, _pass_1, _pass_2, _pass_3 = PASS_VARIANTS
+def banded_pass(values, target, tones, rows, tones_in, write_out, scale, parameters, plane_pass,
+                counts, changes, pass_kernel):  # fmt: skip
+    """One pass of ``pass_kernel`` (a ``labyrinth_pass``) over the tones of the integer
+    plane ``values``, band of rows by band of rows.
+
+    Parameters
+    ----------
+    values : (H, W) integer C-contiguous array
+        The plane's values before the passes (never written).
+    target : (H, W) array of the dtype of ``values``
+        With ``write_out``, every pixel gets its value after this pass: the
+        value of the source where its tone did not change, else
+        ``rint(tone / gain + low)`` clipped to ``[lowest, highest]``
+        (``ToneScale.from_tones``).
+    tones : (H, W) or (rows + 2, W) float32 C-contiguous array
+        The tones the pass updates in place; with ``tones_in`` it need hold
+        nothing: each row gets the tone of its values just before the kernel
+        reads it (``ToneScale.to_tones``). With ``tones_in`` and ``write_out``
+        (the only pass of a render) it may be a ring of one band and the rows
+        above and below it, which the bands take in turn: the tones never leave
+        the cache (any border but ``"wrap"``).
+    rows : int
+        Rows of a band (``band_rows(W)``; a ring holds ``rows + 2``).
+    tones_in, write_out : bool
+        Make the tones; write the values.
+    scale : IntegerScale
+        The tone scale of ``values``' dtype. With ``paper_uint8`` (uint8 on the
+        scale (0, 255)) a tone is its value: in a whole plane every one is
+        rounded back, nothing compared; in a ring the values are copied with the
+        tones and the changed ones written, as for any other scale.
+    parameters, plane_pass, counts
+        As ``labyrinth_pass`` takes them (any scan but the checkerboard;
+        ``plane_pass.has_nonfinite`` False: a plane of integers is finite).
+    changes : (1 + capacity,) int64 array
+        The pixels the passes write, as ``labyrinth_pass`` notes them (zero
+        before the first pass): with a ring, those of each band in turn; with a
+        whole plane, those of every pass so far. Where they are few, the source
+        values are copied and only they are written.
+    pass_kernel : numba dispatcher
+        The variant of ``labyrinth_pass`` for ``parameters`` (``_kernel.pass_kernel``).
+
+    Notes
+    -----
+    The bands are taken here, not in one compiled loop: the pass kernel is
+    compiled once for every dtype, and only the loops that make tones and
+    write values are compiled for each. A band costs three calls of compiled
+    code (``_jit.compiled_for``), microseconds against its milliseconds.
+    """
+    height, width = values.shape
+    ring = tones.shape[0] < height
+    # a whole plane that changed little so far: its values are written after the pass
+    deferred = (
+        write_out and not ring and not scale.paper_uint8 and 32 * int(changes[0]) < height * width
+    )
+    # the only pass, a ring: the source values copied into the target with the tones
+    # (uint8 on (0, 255) too: a copy and the few changes cost less than rounding every tone)
+    copied = ring and write_out
+    wrap = tones_in and parameters.border == WRAP and height > 1  # row 0 reads the last row
+    made = 0  # rows whose tones are made
+    prepare = write = run_pass = None
+    for band_start in range(0, height, rows):
+        band_stop = min(height, band_start + rows)
+        # ``tones`` holds the rows from ``offset`` on: the ring, from the row above the band
+        offset = band_start - 1 if ring else 0
+        arguments = (values, tones, target, band_start, band_stop, rows, made, offset, ring,
+                     tones_in, copied, wrap, scale)  # fmt: skip
+        prepare = prepare or compiled_for(_prepare_band, *arguments)
+        made = prepare(*arguments)
+        if ring:
+            changes[0] = 0
+        region = PassRegion(-1, band_start, band_stop, 0, -1, offset, height)
+        arguments = (tones, parameters, plane_pass, region, counts, changes)
+        run_pass = run_pass or compiled_for(pass_kernel, *arguments)
+        run_pass(*arguments)
+        if write_out and not deferred:
+            arguments = (target, values, tones, band_start, band_stop, offset, changes, ring,
+                         scale.paper_uint8, copied, scale)  # fmt: skip
+            write = write or compiled_for(write_band, *arguments)
+            write(*arguments)
+    if deferred:
+        write_band(target, values, tones, 0, height, 0, changes, True, False, False, scale)
 
 
-def _banded_pass_variant(variant):
-    """``banded_pass`` compiled with the kernel ``PASS_VARIANTS[variant]`` (see
-    ``_kernel.pass_kernel``); :func:`banded_kernel` picks it."""
+@cached_njit(nogil=True)
+def _prepare_band(values, tones, target, band_start, band_stop, rows, made, offset, ring,
+                  tones_in, copied, wrap, scale):  # fmt: skip
+    """The tones a band reads, before the pass kernel takes it; the rows made so far.
 
-    @cached_njit(nogil=True)
-    def banded_pass(values, target, tones, rows, tones_in, write_out, scale, parameters,
-                    plane_pass, counts, changes):  # fmt: skip
-        """One pass of ``labyrinth_pass`` over the tones of the integer plane ``values``.
-
-        Parameters
-        ----------
-        values : (H, W) integer C-contiguous array
-            The plane's values before the passes (never written).
-        target : (H, W) array of the dtype of ``values``
-            With ``write_out``, every pixel gets its value after this pass: the
-            value of the source where its tone did not change, else
-            ``rint(tone / gain + low)`` clipped to ``[lowest, highest]``
-            (``ToneScale.from_tones``).
-        tones : (H, W) or (rows + 2, W) float32 C-contiguous array
-            The tones the pass updates in place; with ``tones_in`` it need hold
-            nothing: each row gets the tone of its values just before the kernel
-            reads it (``ToneScale.to_tones``). With ``tones_in`` and
-            ``write_out`` (the only pass of a render) it may be a ring of one
-            band and the rows above and below it, which the bands take in turn:
-            the tones never leave the cache (any border but ``"wrap"``).
-        rows : int
-            Rows of a band (``band_rows(W)``; a ring holds ``rows + 2``).
-        tones_in, write_out : bool
-            Make the tones; write the values.
-        scale : IntegerScale
-            The tone scale of ``values``' dtype. With ``paper_uint8`` (uint8 on
-            the scale (0, 255)) a tone is its value: in a whole plane every one
-            is rounded back, nothing compared; in a ring the values are copied
-            with the tones and the changed ones written, as for any other scale.
-        parameters, plane_pass, counts
-            As ``labyrinth_pass`` takes them (any scan but the checkerboard;
-            ``plane_pass.has_nonfinite`` False: a plane of integers is finite).
-        changes : (1 + capacity,) int64 array
-            The pixels the passes write, as ``labyrinth_pass`` notes them (zero
-            before the first pass): with a ring, those of each band in turn; with
-            a whole plane, those of every pass so far. Where they are few, the
-            source values are copied and only they are written.
-        """
-        height, width = values.shape
-        paper_uint8 = scale.paper_uint8
-        ring = tones.shape[0] < height
-        made = 0  # rows whose tones are made
-        # a whole plane that changed little so far: its values are written after the pass
-        deferred = write_out and not ring and not paper_uint8 and 32 * changes[0] < height * width
-        # the only pass, a ring: the source values copied into the target with the tones
-        # (uint8 on (0, 255) too: a copy and the few changes cost less than rounding every tone)
-        copied = ring and write_out
-        if tones_in and parameters.border == WRAP and height > 1:  # row 0 reads the last row
-            _make_tones(values, tones, height - 1, height, 0, scale)
-        for band_start in range(0, height, rows):
-            band_stop = min(height, band_start + rows)
-            # ``tones`` holds the rows from ``offset`` on: the ring, from the row above the band
-            offset = band_start - 1 if ring else 0
-            if ring and band_start > 0:  # the last row of the band above, and the band's first
-                for k in range(2):
-                    for x in range(width):
-                        tones[k, x] = tones[rows + k, x]
-            if tones_in:  # the band and the row below it, which the band's last row reads
-                ahead = min(height, band_stop + 1)
-                if copied:  # and the source values into the target, where few will change
-                    _make_tones_and_copy(values, tones, target, made, ahead, offset, scale)
-                else:
-                    _make_tones(values, tones, made, ahead, offset, scale)
-                made = ahead
-            if ring:
-                changes[0] = 0
-            region = PassRegion(-1, band_start, band_stop, 0, -1, offset, height)
-            # ``variant`` is a constant: the branches of the other variants fold away (a
-            # kernel taken from a tuple would be called through a pointer, not compiled in)
-            if variant == 0:
-                _pass_0(tones, parameters, plane_pass, region, counts, changes)
-            elif variant == 1:
-                _pass_1(tones, parameters, plane_pass, region, counts, changes)
-            elif variant == 2:
-                _pass_2(tones, parameters, plane_pass, region, counts, changes)
-            else:
-                _pass_3(tones, parameters, plane_pass, region, counts, changes)
-            if write_out and not deferred:
-                _write_band(target, values, tones, band_start, band_stop, offset, changes, ring,
-                            paper_uint8, copied, scale)  # fmt: skip
-        if deferred:
-            _write_band(target, values, tones, 0, height, 0, changes, True, False, False, scale)
-
-    return banded_pass
+    In a ring, the last row of the band above and the band's first move to the
+    ring's first two rows. With ``tones_in``, the tones of the band and of the row
+    below it (which the band's last row reads) from ``made`` on (and with
+    ``copied`` their values into ``target``); with ``wrap``, before the first band,
+    those of the last row, which row 0 reads.
+    """
+    height, width = values.shape
+    if wrap and band_start == 0:
+        _make_tones(values, tones, height - 1, height, 0, scale)
+    if ring and band_start > 0:
+        for k in range(2):
+            for x in range(width):
+                tones[k, x] = tones[rows + k, x]
+    if not tones_in:
+        return made
+    ahead = min(height, band_stop + 1)
+    if copied:  # and the source values into the target, where few will change
+        _make_tones_and_copy(values, tones, target, made, ahead, offset, scale)
+    else:
+        _make_tones(values, tones, made, ahead, offset, scale)
+    return ahead
 
 
-#: ``banded_pass`` for each of the kernel's variants, in the order of ``PASS_VARIANTS``.
-BANDED_VARIANTS = tuple(_banded_pass_variant(variant) for variant in range(len(PASS_VARIANTS)))
-
-
-def banded_kernel(condition_order: int, include_centre: bool):
-    """``banded_pass`` for ``condition_order`` and ``include_centre``, which its own
-    arguments must repeat."""
-    return BANDED_VARIANTS[variant_index(condition_order, include_centre)]
-
-
-@njit(nogil=True)
-def _write_band(target, values, tones, row_start, row_stop, offset, changes, listed, paper_uint8,
-                copied, scale):  # fmt: skip
+@cached_njit(nogil=True)
+def write_band(target, values, tones, row_start, row_stop, offset, changes, listed, paper_uint8,
+               copied, scale):  # fmt: skip
     """The values of the rows ``row_start <= y < row_stop`` (tones at ``tones[y - offset]``):
     if ``listed`` and ``changes`` holds few pixels (all that changed there), the source
     values (unless ``copied`` there already) and those; else every pixel compared."""
