@@ -87,7 +87,11 @@ def test_a_run_waits_only_for_the_steps_it_needs(qtbot, viewer, slow_warm_up):
     widget.mode.value = "stack"
     assert widget.run() is not None
     release(1)  # the render's kernels: a stack with metrics needs the metrics' too
-    qtbot.waitUntil(lambda: "step 2 of 2" in widget.status.value, timeout=10_000)
+
+    def waits_for_step_2():  # an assertion: a timeout shows what the widget said instead
+        assert "step 2 of 2" in widget.status.value, (widget.status.value, widget.warm_up.step)
+
+    qtbot.waitUntil(waits_for_step_2, timeout=10_000)
     qtbot.wait(200)
     assert widget._waiting is not None and len(viewer.layers) == 1
     release(2)
