@@ -44,8 +44,13 @@ def test_closing_the_dock_cancels_the_run_and_adds_nothing(qtbot, viewer, widget
     assert len(viewer.layers) == layers_before
 
 
-def test_removing_the_input_cancels_the_run(qtbot, viewer, widget):
+@pytest.mark.parametrize("proxied", [False, True], ids=["layer", "napari's proxy of it"])
+def test_removing_the_input_cancels_the_run(qtbot, viewer, widget, proxied):
+    from napari.utils._proxies import PublicOnlyProxy
+
     source, worker = _start_long_run(viewer, widget)
+    if proxied:  # the event names the layer through the proxy napari hands a plugin
+        widget._input = PublicOnlyProxy(widget._input)
     worker.yielded.connect(lambda _: source in viewer.layers and viewer.layers.remove(source))
     worker.start()
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)

@@ -620,7 +620,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
 
     def _on_layer_removed(self, event) -> None:
         """Removing the input of a run cancels it: its result would have nowhere to go."""
-        if self.worker is not None and event.value is self._input:
+        if self.worker is not None and _unwrapped(event.value) is _unwrapped(self._input):
             self._cancel_because("the input layer was removed")
 
     def close_down(self) -> None:
@@ -651,6 +651,12 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
     def comparing(self) -> bool:
         """Whether the compare (grid) view is on."""
         return self._compare.active
+
+
+def _unwrapped(layer):
+    """The layer behind ``layer``: napari hands a plugin proxies of its objects, and a
+    proxy and the layer it wraps are not the same object."""
+    return getattr(layer, "__wrapped__", layer)
 
 
 def _nothing() -> None:
