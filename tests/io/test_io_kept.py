@@ -381,3 +381,29 @@ def test_an_ome_output_that_ome_cannot_hold_is_said(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "stack.zarr: OME-Zarr (2 to 5 axes" in err and "cannot hold the axes QCYX" in err
     assert read_metadata(tmp_path / "stack.zarr").axes == "QCYX"  # kept, in its own words
+
+
+# -- the image name -------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("output", ["out.ome.tif", "out.zarr", "out_stack.tif"])
+def test_the_ome_image_name_is_kept_through_render(tmp_path, output):
+    source = tmp_path / "in.ome.tif"
+    tifffile.imwrite(source, np.stack([CAM, ALPHA]), ome=True,
+                     metadata={"axes": "ZYX", "Name": "zstack"})  # fmt: skip
+    assert read_metadata(source).image_name == "zstack"
+    stack = ["--stack"] if "stack" in output else []
+    assert render(source, "-o", tmp_path / output, *stack) == EXIT_OK
+    assert read_metadata(tmp_path / output).image_name == "zstack"
+
+
+def test_the_image_name_of_an_ome_tiff_written_by_bioio_is_kept(tmp_path):
+    writer = pytest.importorskip("bioio.writers").OmeTiffWriter
+    source = tmp_path / "zstack.ome.tif"
+    writer.save(np.stack([CAM, ALPHA]), source, dim_order="ZYX", image_name="zstack",
+                channel_names=["DAPI"])  # fmt: skip
+    assert render(source, "-o", tmp_path / "out.ome.tif") == EXIT_OK
+    metadata = read_metadata(tmp_path / "out.ome.tif")
+    assert metadata.image_name == "zstack" and metadata.channel_names == ("DAPI",)
+    with tifffile.TiffFile(tmp_path / "out.ome.tif") as tif:
+        assert 'Name="zstack"' in tif.ome_metadata

@@ -51,6 +51,8 @@ def tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | Non
     record = None if metadata is None else metadata.provenance
     if metadata is not None and metadata.ome and metadata.axes and ome_tiff_ok(metadata, shape):
         ome: dict[str, Any] = {"axes": metadata.axes}
+        if metadata.image_name is not None:
+            ome["Name"] = metadata.image_name
         for letter, (size, unit) in metadata.pixel_sizes.items():
             ome[f"PhysicalSize{letter}"] = size
             if unit is not None:
@@ -81,6 +83,8 @@ def tiff_options(shape: Sequence[int], dtype: Any, metadata: ImageMetadata | Non
                 description["channel_names"] = list(names)
             if metadata.time_increment is not None and "T" in metadata.axes:
                 description["time_increment"] = list(metadata.time_increment)
+        if metadata is not None and metadata.image_name is not None:
+            description["image_name"] = metadata.image_name
         options.update(ome=False, metadata=description)
     return options
 

@@ -11,6 +11,7 @@ and what they share: unit names and symbols, channel names, the record.
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -86,6 +87,14 @@ class ImageMetadata:
         channel labels (or those this package writes beside the axes where
         OME cannot hold them); ``()`` when the file names none (or not
         all). A TIFF or zarr output names them again.
+    image_name : str or None
+        The name of the image: an OME-TIFF's ``Image`` ``Name``, an
+        OME-Zarr image's ``multiscales`` ``name``, the OME image name or
+        scene name bioio reads (not the ``Image:0`` it makes up); None when
+        the file names none. A TIFF or zarr output names it again.
+    scene : str or None
+        The scene read from a file of several (bioio's name for it), None
+        for a file the package reads itself.
     """
 
     axes: str | None = None
@@ -102,6 +111,8 @@ class ImageMetadata:
     icc_profile: bytes | None = dataclasses.field(default=None, repr=False)
     channel_names: tuple[str, ...] = ()
     time_increment: tuple[float, str | None] | None = None
+    image_name: str | None = None
+    scene: str | None = None
 
     def for_output(self, extra_axis: str | None, provenance: dict | None) -> ImageMetadata:
         """The metadata of a rendering of this image.
@@ -191,6 +202,18 @@ def complete_names(names) -> tuple[str, ...]:
     if not names or not all(isinstance(name, str) and name for name in names):
         return ()
     return names
+
+
+#: The names readers and writers make up for an image without one (tifffile's ``Image0``,
+#: bioio's ``Image:0``): never the image's own name.
+_MADE_UP_IMAGE_NAME = re.compile(r"Image:?\d+")
+
+
+def image_name(name: Any) -> str | None:
+    """An image's name as a file states it, or None for none, an empty one or one made up."""
+    if not isinstance(name, str) or not name or _MADE_UP_IMAGE_NAME.fullmatch(name):
+        return None
+    return name
 
 
 def named_channels(metadata: ImageMetadata, shape: Sequence[int]) -> tuple[str, ...]:

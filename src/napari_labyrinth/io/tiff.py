@@ -39,6 +39,7 @@ from .metadata import (
     SPATIAL_AXES,
     ImageMetadata,
     complete_names,
+    image_name,
     is_ambiguous,
     read_record,
     tiff_colour,
@@ -100,12 +101,13 @@ def tiff_metadata(path: Path) -> ImageMetadata:
                 channel_axis -= len(axes)  # as a PNG's -1: the command line keeps its alpha
         record, sizes, ome = None, {}, bool(tif.is_ome and tif.ome_metadata)
         channel_names: tuple[str, ...] = ()
-        time_increment = None
+        time_increment, stated_name = None, None
         imagej = None if ome else tif.imagej_metadata
         if ome:
             ome_xml = tifffile.xml2dict(tif.ome_metadata)["OME"]
             image = _first(ome_xml.get("Image"))
             pixels = (image or {}).get("Pixels", {})
+            stated_name = image_name((image or {}).get("Name"))
             for letter in SPATIAL_AXES:
                 size = pixels.get(f"PhysicalSize{letter}")
                 if size is not None:
@@ -135,6 +137,7 @@ def tiff_metadata(path: Path) -> ImageMetadata:
             names = description.get("channel_names")
             channel_names = complete_names(names if isinstance(names, list) else ())
             time_increment = time_pair(description.get("time_increment"))
+            stated_name = image_name(description.get("image_name"))
     tifffile_default = not ome and imagej is None and set(axes) <= set("QSYX")
     return ImageMetadata(
         axes=None if tifffile_default else axes,
@@ -153,6 +156,7 @@ def tiff_metadata(path: Path) -> ImageMetadata:
         imagej=imagej is not None,
         channel_names=channel_names,
         time_increment=time_increment,
+        image_name=stated_name,
     )
 
 

@@ -34,6 +34,7 @@ from .metadata import (
     SPATIAL_AXES,
     ImageMetadata,
     complete_names,
+    image_name,
     is_ambiguous,
     named_channels,
     read_record,
@@ -78,6 +79,7 @@ def zarr_metadata(path: Path) -> ImageMetadata:
     record = attributes.get(KEY, dict(array.attrs).get(KEY))
     multiscales = attributes.get("multiscales") or attributes.get("ome", {}).get("multiscales")
     axes, sizes, ome, channel_names, time_increment = None, {}, False, (), None
+    stated_name = image_name(attributes.get("image_name"))
     if isinstance(node, zarr.Group) and multiscales:
         ome = True
         omero = attributes.get("omero") or attributes.get("ome", {}).get("omero") or {}
@@ -87,6 +89,7 @@ def zarr_metadata(path: Path) -> ImageMetadata:
             for channel in (channels if isinstance(channels, list) else ())
         )
         scale = multiscales[0]
+        stated_name = image_name(scale.get("name")) or stated_name
         names = [a["name"] if isinstance(a, dict) else a for a in scale.get("axes", ())]
         units = [a.get("unit") if isinstance(a, dict) else None for a in scale.get("axes", ())]
         if len(names) == array.ndim:
@@ -116,6 +119,7 @@ def zarr_metadata(path: Path) -> ImageMetadata:
         ambiguous=is_ambiguous(array.shape, None, axes),
         channel_names=channel_names,
         time_increment=time_increment,
+        image_name=stated_name,
     )
 
 
@@ -204,6 +208,8 @@ def _zarr_attributes(shape: Sequence[int], metadata: ImageMetadata | None) -> tu
                 attributes["channel_names"] = list(names)
             if metadata.time_increment is not None and "T" in axes:
                 attributes["time_increment"] = list(metadata.time_increment)
+        if metadata.image_name is not None:
+            attributes["image_name"] = metadata.image_name
         return attributes, ""
     entries, scale = [], []
     for letter in axes:
@@ -228,6 +234,8 @@ def _zarr_attributes(shape: Sequence[int], metadata: ImageMetadata | None) -> tu
             }
         ],
     }
+    if metadata.image_name is not None:
+        attributes["ome"]["multiscales"][0]["name"] = metadata.image_name
     if names := named_channels(metadata, shape):
         attributes["ome"]["omero"] = {"channels": [{"label": name} for name in names]}
     return attributes, "0"
