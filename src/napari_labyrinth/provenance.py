@@ -256,15 +256,24 @@ def sweep_arguments(arguments: dict[str, Any], parameter: str, values: Sequence[
 
 
 def input_record(
-    name: str, shape: Sequence[int], dtype: Any, sha256: str | None = None
+    name: str,
+    shape: Sequence[int],
+    dtype: Any,
+    sha256: str | None = None,
+    *,
+    scene: str | None = None,
 ) -> dict[str, Any]:
-    """The ``input`` entry of a record: name, checksum of the file (or None), shape, dtype."""
-    return {
+    """The ``input`` entry of a record: name, checksum of the file (or None), shape, dtype,
+    and the scene read from a file of several (bioio's name for it), if any."""
+    record = {
         "name": str(name),
         "sha256": sha256,
         "shape": [int(n) for n in shape],
         "dtype": str(np.dtype(dtype)),
     }
+    if scene is not None:
+        record["scene"] = scene
+    return record
 
 
 def file_checksum(path: str | os.PathLike) -> str:

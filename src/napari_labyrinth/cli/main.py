@@ -120,7 +120,9 @@ def build_parser() -> argparse.ArgumentParser:
         "render",
         help="render image files",
         description=(
-            "Render image files (TIFF, PNG, JPEG, BMP) and zarr stores. Parameters not "
+            "Render image files (TIFF, PNG, JPEG, BMP), zarr stores and, through bioio "
+            '(pip install "napari-labyrinth[formats]"), the formats of microscopes (CZI, '
+            "ND2, LIF, ...). Parameters not "
             f"given come from the preset (default {DEFAULT_PRESET!r}). The result keeps "
             "the input's shape and dtype; stacks and sweeps are written as TIFF or zarr. "
             "Colour, OME axes and pixel sizes are read from the file and written back; "
@@ -147,6 +149,14 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     add_parameter_arguments(render)
+    render.add_argument(
+        "--scene",
+        metavar="SCENE",
+        help=(
+            "the scene of a file of several (CZI, LIF, ND2... read through bioio): its index "
+            "or its name (default the first)"
+        ),
+    )
     render.add_argument(
         "--scheduler",
         type=scheduler_address,

@@ -37,6 +37,7 @@ from ..io import (
     check_output,
     enclosing_zarr_store,
     image_format,
+    input_format,
     ome_lost,
     open_image,
     read_metadata,
@@ -65,6 +66,10 @@ from .options import SCHEDULER_TIMEOUT, render_options
 #: Suffix a directory batch gives the rendering of an input in a lossy format, or in
 #: one that holds no provenance record.
 LOSSLESS_SUFFIX = ".png"
+
+#: Suffix a directory batch gives the rendering of an input read through bioio (CZI, ND2...):
+#: its axes, pixel sizes and channel names are OME's.
+BIOIO_SUFFIX = ".ome.tif"
 
 #: What the second progress bar counts: passes over a plane (in memory), or planes
 #: written (a lazy rendering, computed as it is written).
@@ -294,13 +299,11 @@ def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
     jobs = []
     for path in inputs:
         stem, suffix = _stem_and_suffix(path)
-        try:
-            kind = image_format(path)
-        except ValueError as exc:
-            jobs.append(_Job(path, None, error=describe(exc, path)))
-            continue
+        kind = input_format(path)
         if kind == "ZARR":  # store.zarr or store.zarr/array: named after the store
             stem, suffix = _stem_and_suffix(zarr_root(path)[0])
+        elif kind == "BIOIO":  # read through bioio, with OME metadata: written as OME-TIFF
+            suffix = BIOIO_SUFFIX
         elif variant is not None and kind != "TIFF":
             suffix = ".tif"  # a stack or sweep does not fit in a PNG or JPEG
         elif kind in LOSSY_FORMATS + FORMATS_WITHOUT_METADATA and not (
@@ -438,10 +441,11 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     counts plane-passes).
     """
 
-    metadata = read_metadata(job.input)
+    scene = getattr(args, "scene", None)
+    metadata = read_metadata(job.input, scene=scene)
     channel_axis = input_channel_axis(metadata, args.channel_axis)
     lazy = True if args.scheduler is not None else None
-    image = open_image(job.input, lazy=lazy, channel_axis=channel_axis)
+    image = open_image(job.input, lazy=lazy, channel_axis=channel_axis, scene=scene)
     if image.dtype.kind == "b":  # a 1-bit PNG or TIFF: the API would name only its dtype
         raise ImageFileError(
             job.input,
@@ -503,7 +507,9 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
                 result, limits = event.image, event.tone_limits
             else:
                 progress(event.done, event.total)
-        source = input_record(job.input, image.shape, image.dtype, file_checksum(job.input))
+        source = input_record(
+            job.input, image.shape, image.dtype, file_checksum(job.input), scene=metadata.scene
+        )
         record = rendering_record(mode, kwargs, source=source, tone_limits=limits)
         job.output.parent.mkdir(parents=True, exist_ok=True)
         write_array(

@@ -34,7 +34,9 @@ def reproduce_command(args: argparse.Namespace) -> int:
         )
     mode, arguments = reproduce_call(record)
     try:
-        image = open_image(path, lazy=None, channel_axis=arguments.get("channel_axis"))
+        image = open_image(
+            path, lazy=None, channel_axis=arguments.get("channel_axis"), scene=source.get("scene")
+        )
         for event in api.labyrinth_steps(image, mode, **arguments):
             if isinstance(event, api.Result):
                 again = event.image

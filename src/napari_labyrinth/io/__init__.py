@@ -2,7 +2,9 @@
 
 TIFF files go through tifffile (any dtype, any number of dimensions); PNG,
 JPEG and BMP through imageio's pillow plugin; zarr stores (``.zarr``
-directories) through zarr and dask. Writes are atomic: the data go to a
+directories) through zarr and dask. Files of any other format (CZI, ND2,
+LIF, ...) are read through bioio and its reader plugins, the optional extra
+``napari-labyrinth[formats]``, one scene at a time. Writes are atomic: the data go to a
 temporary file (or directory) beside the destination, which then takes the
 destination's name in one step, so a reader never sees a half-written file
 and an error leaves nothing behind.
@@ -24,7 +26,8 @@ attributes (OME-Zarr ``multiscales`` where the axes allow) in a zarr store.
 
 The functions here choose the format by the path and hand over to one
 module per format: :mod:`.tiff` (with :mod:`._tiff_options`, what a TIFF
-output stores), :mod:`.pillow` (PNG, JPEG, BMP) and :mod:`.zarr`;
+output stores), :mod:`.pillow` (PNG, JPEG, BMP), :mod:`.zarr` and
+:mod:`.bioio_reader` (the other formats, read only);
 :mod:`.metadata` holds :class:`ImageMetadata`, :mod:`._formats` which format
 a path names and what it can store, :mod:`._atomic` the temporaries of
 writes, :mod:`._arrays` byte order and blocks, :mod:`._errors` the error.
@@ -45,6 +48,7 @@ from ._arrays import BLOCK_BYTES, plane_count
 from ._atomic import create_temporary, published
 from ._errors import ImageFileError, reason_of, require_file
 from ._formats import (
+    BIOIO,
     FORMATS,
     FORMATS_WITHOUT_METADATA,
     LOSSY_FORMATS,
@@ -52,9 +56,17 @@ from ._formats import (
     check_writable,
     enclosing_zarr_store,
     image_format,
+    input_format,
     zarr_root,
 )
 from ._tiff_options import ome_tiff_ok
+from .bioio_reader import (
+    FORMATS_EXTRA,
+    bioio_in_memory,
+    bioio_metadata,
+    open_bioio_lazily,
+    read_bioio,
+)
 from .metadata import SPATIAL_AXES, ImageMetadata
 from .pillow import pillow_metadata, read_pillow, write_pillow
 from .tiff import (
@@ -91,6 +103,8 @@ __all__ = [
     "SPATIAL_AXES",
     # formats and paths
     "image_format",
+    "input_format",
+    "FORMATS_EXTRA",
     "zarr_root",
     "enclosing_zarr_store",
     "FORMATS",
@@ -114,7 +128,7 @@ ProgressCallback = Callable[[int, int], Any]
 LAZY_TIFF_BYTES = 1 << 30
 
 
-def read_image(path: str | os.PathLike) -> np.ndarray:
+def read_image(path: str | os.PathLike, *, scene: int | str | None = None) -> np.ndarray:
     """Read an image file into an array.
 
     Parameters
@@ -127,7 +141,11 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
         RGB, a PNG transparency chunk (``tRNS``) becomes an alpha channel:
         RGBA, or grey + alpha; an EXIF orientation is applied, so the
         pixels are upright as viewers show them) or a zarr store (see
-        :func:`open_image`), read whole.
+        :func:`open_image`), read whole; a file of any other suffix is
+        read through bioio (see :func:`read_metadata`).
+    scene : int or str, optional
+        The scene of a file read through bioio: its index or its name
+        (default the first). The files the package reads itself hold one.
 
     Returns
     -------
@@ -138,13 +156,17 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     FileNotFoundError
         If the file does not exist.
     ImageFileError
-        (a ValueError) naming the file, for an unknown suffix, a file that
-        cannot be read (corrupt, truncated, not an image, a directory, no
-        permission), or one whose pixels would be read wrongly or lossily:
+        (a ValueError) naming the file, for a file that cannot be read
+        (corrupt, truncated, not an image, a directory, no permission, of a
+        format no installed reader reads, or bioio not installed), a scene
+        it has not, or one whose pixels would be read wrongly or lossily:
         see :func:`read_metadata`.
     """
     path = Path(path)
-    kind = image_format(path)
+    kind = input_format(path)
+    if kind == BIOIO:
+        return read_bioio(path, scene)
+    _refuse_scene(path, scene)
     if kind == "ZARR":
         return read_zarr(path)
     require_file(path)
@@ -240,7 +262,11 @@ def write_image(
 
 
 def open_image(
-    path: str | os.PathLike, *, lazy: bool | None = None, channel_axis: int | None = None
+    path: str | os.PathLike,
+    *,
+    lazy: bool | None = None,
+    channel_axis: int | None = None,
+    scene: int | str | None = None,
 ):
     """Open an image file, into memory or lazily as a dask array.
 
@@ -252,13 +278,16 @@ def open_image(
         level is read) or a group of one array; ``store.zarr/name`` names an
         array of a group.
     lazy : bool, optional
-        None (default): zarr stores are opened lazily, TIFF files lazily when
-        they hold more than one plane and more than ``LAZY_TIFF_BYTES`` bytes
-        of pixels, everything else is read into memory. True: zarr stores
-        and TIFF files lazily. False: everything into memory. PNG, JPEG and
+        None (default): zarr stores are opened lazily, TIFF files and files
+        read through bioio lazily when they hold more than one plane and more
+        than ``LAZY_TIFF_BYTES`` bytes of pixels (or more than the run may
+        hold), everything else is read into memory. True: zarr stores, TIFF
+        files and files read through bioio lazily (bioio's dask array). False: everything into memory. PNG, JPEG and
         BMP files (one image each) are always read into memory.
     channel_axis : int, optional
         The colour axis, kept whole in each block of a lazy array.
+    scene : int or str, optional
+        The scene of a file read through bioio (see :func:`read_image`).
 
     Returns
     -------
@@ -278,7 +307,15 @@ def open_image(
         (a ValueError) naming the file, if it cannot be read.
     """
     path = Path(path)
-    kind = image_format(path)
+    kind = input_format(path)
+    if kind == BIOIO:
+        data = open_bioio_lazily(path, scene, channel_axis)
+        planes = int(np.prod(data.shape[:-2]))
+        large = data.nbytes > LAZY_TIFF_BYTES or refusal(data.shape, data.dtype)
+        if lazy is False or (lazy is None and not (planes > 1 and large)):
+            return bioio_in_memory(path, data)
+        return data
+    _refuse_scene(path, scene)
     if kind == "ZARR":
         return read_zarr(path) if lazy is False else open_zarr_lazily(path, channel_axis)
     if kind != "TIFF" or lazy is False:
@@ -430,7 +467,7 @@ def check_output(
         )
 
 
-def read_metadata(path: str | os.PathLike) -> ImageMetadata:
+def read_metadata(path: str | os.PathLike, *, scene: int | str | None = None) -> ImageMetadata:
     """What an image file or zarr store says about its pixels, without reading them.
 
     - TIFF (tifffile): the axes of its series; its ``S`` axis (samples
@@ -452,6 +489,13 @@ def read_metadata(path: str | os.PathLike) -> ImageMetadata:
       record in a PNG text chunk or a JPEG comment.
     - zarr: OME-Zarr ``multiscales`` axes and scale of the full-resolution
       level; the record in the attributes (of the group, or of the array).
+    - Any other suffix (CZI, ND2, LIF, ...), through bioio and the reader
+      plugin of the format (``pip install "napari-labyrinth[formats]"``):
+      one scene (``scene``: its index or name, default the first); its
+      dimensions in bioio's order (``TCZYX``, ``S`` for RGB samples, the
+      colour axis) without those of length 1; its physical pixel sizes in
+      micrometres; its channel names; its OME image name or scene name.
+      Marked ``ome``: an output is OME-TIFF or OME-Zarr where OME holds it.
 
     A plain TIFF or zarr array whose last axis has 3 or 4 entries and no
     colour metadata is marked ``ambiguous`` (it is read as planes).
@@ -473,7 +517,10 @@ def read_metadata(path: str | os.PathLike) -> ImageMetadata:
         (a ValueError) naming the file, if it cannot be read or is refused.
     """
     path = Path(path)
-    kind = image_format(path)
+    kind = input_format(path)
+    if kind == BIOIO:
+        return bioio_metadata(path, scene)
+    _refuse_scene(path, scene)
     if kind == "ZARR":
         return zarr_metadata(path)
     require_file(path)
@@ -529,6 +576,16 @@ def release_files() -> None:
     the stores opened for writing."""
     close_lazy_files()
     forget_stores_written()
+
+
+def _refuse_scene(path: Path, scene: int | str | None) -> None:
+    """Refuse a scene other than the first of a file the package reads itself (one image)."""
+    if scene is not None and str(scene) != "0":
+        raise ImageFileError(
+            path,
+            f"holds one image, not scenes: scene {scene!r} applies to files read through "
+            "bioio (CZI, ND2, LIF, ...)",
+        )
 
 
 def _write(

@@ -1,7 +1,8 @@
 """Which format a path names, and which arrays each format can store.
 
 The suffix names the format (:data:`FORMATS`), except that a path inside a
-``.zarr`` directory names an array of a zarr store (:func:`zarr_root`). The
+``.zarr`` directory names an array of a zarr store (:func:`zarr_root`); an
+input of any other suffix is read through bioio (:func:`input_format`). The
 checks here refuse, before anything is computed or written, an array that
 the format cannot hold or a destination that would be clobbered.
 """
@@ -27,6 +28,11 @@ FORMATS = {
     ".bmp": "BMP",
     ".zarr": "ZARR",
 }
+
+
+#: The format of an input the package does not read itself: bioio reads it, through the
+#: reader plugin of its format (``io.bioio_reader``).
+BIOIO = "BIOIO"
 
 
 #: Formats that lose information when written: an output in one of them
@@ -58,6 +64,14 @@ def image_format(path: str | os.PathLike) -> str:
         known = ", ".join(FORMATS)
         what = f"unknown image format {suffix!r}" if suffix else "no file suffix"
         raise ImageFileError(path, f"{what}; use one of {known}") from None
+
+
+def input_format(path: str | os.PathLike) -> str:
+    """Format name of an input: :func:`image_format`'s, or :data:`BIOIO` for any other
+    suffix (a file bioio's reader plugins may read; outputs are only of ``FORMATS``)."""
+    if Path(path).suffix.lower() in FORMATS or zarr_root(path) is not None:
+        return image_format(path)
+    return BIOIO
 
 
 def zarr_root(path: str | os.PathLike) -> tuple[Path, str] | None:
