@@ -151,7 +151,7 @@ def _open(path: Path, scene: int | str | None):
         with _quiet():
             if index != image.current_scene_index:
                 image.set_scene(index)
-            image.dask_data  # the reader parses what it needs to lay the scene out
+            _ = image.dask_data  # the reader parses what it needs to lay the scene out
     except Exception as exc:  # readers raise many types for metadata they cannot parse
         raise ImageFileError(path, _unreadable(path, exc)) from exc
     return image, index
@@ -219,9 +219,9 @@ def _scene_index(path: Path, scenes: tuple[str, ...], scene: int | str | None) -
     index = scene
     if isinstance(scene, str) and scene.strip().isdigit():
         index = int(scene)
-    if isinstance(index, (int, np.integer)) and not isinstance(index, bool):
-        if 0 <= index < len(scenes):
-            return int(index)
+    is_index = isinstance(index, (int, np.integer)) and not isinstance(index, bool)
+    if is_index and 0 <= index < len(scenes):
+        return int(index)
     listed = ", ".join(f"{number} ({name!r})" for number, name in enumerate(scenes))
     raise ImageFileError(
         path,
