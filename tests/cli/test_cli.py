@@ -288,6 +288,31 @@ def test_a_sweep_with_a_decimal_comma_is_refused_before_rendering(tmp_path, caps
     assert main([*argv, "variance_threshold=0.02 0.04"]) == 0  # spaces separate, as in napari
     assert read_image(tmp_path / "out" / "in_labyrinth_sweep.tif").shape[0] == 2
 
+
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        # rendered the sweep [0.03, 0.05] with exit 0, the empty value skipped
+        ("variance_threshold=0.03,,0.05", "value 2 of '0.03,,0.05' is empty (between 0.03 and"),
+        ("variance_threshold=0.03,0.05,", "value 3 of '0.03,0.05,' is empty (after 0.05)"),
+        ("seed=,1,2", "seed: value 1 of ',1,2' is empty (before 1)"),
+        ("variance_threshold=,,", "type at least one value of variance_threshold to sweep"),
+        ("variance_threshold=0.03,abc", "variance_threshold must be a number; got 'abc'"),
+        ("variance_threshold=0.03:0.05", "got '0.03:0.05': a sweep has no range syntax"),
+        ("passes=1-4", "got '1-4': a sweep has no range syntax"),
+    ],
+)
+def test_a_malformed_sweep_is_refused_in_one_line_before_rendering(
+    tmp_path, capsys, spec, message
+):
+    write_image(tmp_path / "in.tif", gradient_image(np.uint16))
+    argv = ["render", str(tmp_path / "in.tif"), "-o", str(tmp_path / "out"), "--sweep", spec]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()
+
 def test_stack_and_sweep_of_a_png_need_a_tiff_output(tmp_path, capsys):
     write_image(tmp_path / "in.png", gradient_image(np.uint8))
     for variant in (["--stack"], ["--sweep", "seed=1,2"]):

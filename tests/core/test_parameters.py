@@ -157,6 +157,57 @@ def test_no_value_typed_is_refused_naming_the_parameter():
         with pytest.raises(ValueError, match="at least one value of seed to sweep"):
             SWEEPABLE["seed"].parse_values(text)
 
+
+@pytest.mark.parametrize(
+    ("name", "text", "number", "where"),
+    [
+        ("variance_threshold", "0.03,,0.05", 2, "between 0.03 and 0.05"),
+        ("variance_threshold", "0.03, ,0.05", 2, "between 0.03 and 0.05"),
+        ("variance_threshold", "0.03;;0.05", 2, "between 0.03 and 0.05"),
+        ("variance_threshold", "0.03,0.05,", 3, "after 0.05"),  # a trailing comma
+        ("variance_threshold", " ,0.03 ", 1, "before 0.03"),
+        ("seed", "1,2,,,3", 3, "between 2 and 3"),
+        ("border", "inside,,wrap", 2, "between inside and wrap"),
+    ],
+)
+def test_an_empty_value_is_refused_naming_the_parameter_and_which_value(
+    name, text, number, where
+):
+    # "0.03,,0.05" was read as the sweep [0.03, 0.05], the empty value skipped
+    with pytest.raises(ValueError) as error:
+        SWEEPABLE[name].parse_values(text)
+    empty = f"value {number} of {text.strip()!r} is empty ({where})"
+    assert str(error.value).startswith(f"{name}: {empty}: separate the values with one comma")
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "values"),
+    [
+        ("variance_threshold", "0.03 , 0.05", [0.03, 0.05]),  # spaces around one comma
+        ("variance_threshold", " 0.03 ,\t0.05 ; 0.07 ", [0.03, 0.05, 0.07]),
+        ("variance_threshold", "0.03  0.05", [0.03, 0.05]),  # spaces alone separate
+        ("variance_threshold", "1e-4, 2e-4", [1e-4, 2e-4]),
+    ],
+)
+def test_one_separator_with_spaces_around_it_leaves_no_value_empty(name, text, values):
+    assert SWEEPABLE[name].parse_values(text) == values
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "match"),
+    [
+        ("variance_threshold", "0.03:0.05", "number; got '0.03:0.05': a sweep has no range"),
+        ("variance_threshold", "0.03..0.05", "number; got '0.03..0.05': a sweep has no range"),
+        ("passes", "1-4", "passes must be a whole number; got '1-4': a sweep has no range"),
+        ("variance_threshold", "0.03,abc", "^variance_threshold must be a number; got 'abc'$"),
+        ("seed", "1 -2", "^seed must be between 0 and 2\\*\\*63 - 1, got -2$"),
+    ],
+)
+def test_a_value_that_is_not_one_is_refused_with_a_hint_for_ranges(name, text, match):
+    with pytest.raises(ValueError, match=match):
+        SWEEPABLE[name].parse_values(text)
+
+
 def test_bounds_hold_in_the_api():
     base = dict(PRESETS["paper"])
     with pytest.raises(ValueError, match="passes must be between 0 and 1000"):

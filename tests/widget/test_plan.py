@@ -80,6 +80,23 @@ def test_sweep_values_are_parsed_and_checked():
 
 
 @pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        # "0.03,,0.05" swept [0.03, 0.05], the empty value skipped, as the command line did
+        ("0.03,,0.05", "value 2 of '0.03,,0.05' is empty (between 0.03 and 0.05)"),
+        ("0.03, 0.05, ", "value 3 of '0.03, 0.05,' is empty (after 0.05)"),
+        (", 0.03", "value 1 of ', 0.03' is empty (before 0.03)"),
+        ("0.03:0.05", "got '0.03:0.05': a sweep has no range syntax"),
+    ],
+)
+def test_a_sweep_field_with_an_empty_value_or_a_range_is_refused_before_the_run(text, message):
+    snapshot = LayerSnapshot.of(noise((8, 8)), name="cell")
+    with pytest.raises(ValueError, match="^variance_threshold") as error:
+        make_plan(snapshot, Choices(mode="sweep", sweep_text=text))
+    assert message in str(error.value)
+
+
+@pytest.mark.parametrize(
     "parameter, current, text",
     [
         ("variance_threshold", 0.5, "0.47, 0.5, 0.53"),  # Fig. 3

@@ -197,33 +197,70 @@ class Parameter:
     def parse_values(self, text: str) -> list[Any]:
         """Values typed as text, separated by commas, semicolons or spaces, each as :meth:`parse`.
 
-        ``"0.47, 0.50;0.53"`` gives ``[0.47, 0.5, 0.53]``. A decimal comma
-        is refused, not read as two values: a comma between digits in a text
-        with no decimal point (``"0,04"``), or a value of this parameter with
-        a leading zero (``"04"``).
+        ``"0.47, 0.50;0.53"`` gives ``[0.47, 0.5, 0.53]``. Spaces alone
+        separate values; a comma or semicolon (with any spaces around it)
+        separates two values, so two of them in a row, or one at either end,
+        leave a value empty, which is refused (``"0.03,,0.05"``), not skipped.
+        A decimal comma is refused, not read as two values: a comma between
+        digits in a text with no decimal point (``"0,04"``), or a value of this
+        parameter with a leading zero (``"04"``). There is no range syntax: a
+        value such as ``"0.03:0.05"`` is refused as not a value, with a hint.
 
         Raises
         ------
         ValueError
-            Naming the parameter: no value, a value :meth:`parse` refuses, or
-            a decimal comma.
+            Naming the parameter: no value, an empty value, a value :meth:`parse`
+            refuses, or a decimal comma.
         """
-        items = [item for item in _VALUE_SEPARATORS.split(text.strip()) if item]
-        if not items:
+        stripped = text.strip()
+        items = _VALUE_SEPARATORS.split(stripped)
+        values = [item for item in items if item]
+        if not values:
             raise ValueError(
                 f"type at least one value of {self.name} to sweep, e.g. {self._example}"
             )
         if self.kind == "float" and (
             ("." not in text and _DIGIT_COMMA_DIGIT.search(text))
-            or any(_LEADING_ZERO.match(item) for item in items)
+            or any(_LEADING_ZERO.match(item) for item in values)
         ):
-            read = " and ".join([", ".join(items[:-1]), items[-1]] if len(items) > 1 else items)
+            read = " and ".join(
+                [", ".join(values[:-1]), values[-1]] if len(values) > 1 else values
+            )
             raise ValueError(
-                f"{self.name}: {text.strip()!r} has a decimal comma (it would be read as the "
+                f"{self.name}: {stripped!r} has a decimal comma (it would be read as the "
                 f"values {read}): write decimals with a point and separate the values with "
                 f"commas or spaces, e.g. {self._example}"
             )
-        return [self.parse(item) for item in items]
+        if "" in items:
+            raise ValueError(self._empty_value_message(stripped, items))
+        parsed = []
+        for item in items:
+            try:
+                parsed.append(self.parse(item))
+            except ValueError as exc:
+                if _RANGE.search(item):
+                    raise ValueError(
+                        f"{exc}: a sweep has no range syntax; list its values one by one, "
+                        f"e.g. {self._example}"
+                    ) from None
+                raise
+        return parsed
+
+    def _empty_value_message(self, text: str, items: list[str]) -> str:
+        """Why ``text``, split into ``items`` of which one is empty, is refused: which value."""
+        index = items.index("")
+        before = next((item for item in reversed(items[:index]) if item), None)
+        after = next((item for item in items[index + 1 :] if item), None)
+        if before is None:
+            where = f"before {after}"
+        elif after is None:
+            where = f"after {before}"
+        else:
+            where = f"between {before} and {after}"
+        return (
+            f"{self.name}: value {index + 1} of {text!r} is empty ({where}): separate the "
+            f"values with one comma each, e.g. {self._example}"
+        )
 
     @property
     def _example(self) -> str:
@@ -249,8 +286,11 @@ class Parameter:
         }.get(self.kind) or " or ".join(self.choices)
 
 
-#: What separates the values of a sweep typed as text.
-_VALUE_SEPARATORS = re.compile(r"[,;\s]+")
+#: What separates two values of a sweep typed as text: one comma or semicolon with any
+#: spaces around it, or spaces alone. Two commas in a row leave an empty value between them.
+_VALUE_SEPARATORS = re.compile(r"\s*[,;]\s*|\s+")
+#: A value typed as a range (``0.03:0.05``, ``0.03..0.05``, ``1-4``), which a sweep does not read.
+_RANGE = re.compile(r":|\.\.|\d-[\d.]")
 #: A comma between digits: a decimal comma where the text has no decimal point.
 _DIGIT_COMMA_DIGIT = re.compile(r"\d,\d")
 #: A number with a leading zero (``04``): what is left of ``0,04`` split at its comma.

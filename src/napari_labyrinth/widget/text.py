@@ -82,8 +82,9 @@ def parse_sweep_values(parameter: str, text: str) -> list[Any]:
     Raises
     ------
     ValueError
-        If the text holds no value, a value of the wrong type, or a decimal
-        comma (``"0,04"``: see :meth:`Parameter.parse_values`).
+        If the text holds no value, an empty value (``"0.03,,0.05"``), a
+        value of the wrong type or a range, or a decimal comma (``"0,04"``:
+        see :meth:`Parameter.parse_values`).
     """
     if parameter not in SWEEPABLE:
         raise ValueError(
