@@ -1,8 +1,11 @@
-"""The one thread primitive: a helper started without waiting, and the band runs built on it."""
+"""The thread primitives (a helper started without waiting, a wait through Ctrl-C) and the band
+runs built on them."""
 
 from __future__ import annotations
 
+import signal
 import threading
+import time
 
 import pytest
 
@@ -44,3 +47,49 @@ def test_the_bands_are_all_run_by_the_calling_thread_when_no_thread_can_be_had(n
     rows = []
     results = _bands._in_bands(lambda y0, y1: rows.append((y0, y1)) or y1 - y0, 1000, 4)
     assert sum(results) == 1000 and sorted(rows) == rows and rows[-1][1] == 1000
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_kill"), reason="POSIX signals")
+class _WatchedEvent(threading.Event):
+    """An event that says when a thread first waits on it."""
+
+    def __init__(self):
+        super().__init__()
+        self.waited_on = threading.Event()
+
+    def wait(self, timeout=None):
+        self.waited_on.set()
+        return super().wait(timeout)
+
+
+def test_a_wait_through_interrupts_ends_when_the_event_is_set_and_hands_back_the_first():
+    ended, handled = _WatchedEvent(), []
+
+    def handler(signum, frame):
+        handled.append(signum)
+        raise KeyboardInterrupt(len(handled))
+
+    def interrupt_twice_then_end(main_thread):
+        ended.waited_on.wait(60)
+        for count in (1, 2):
+            signal.pthread_kill(main_thread, signal.SIGINT)
+            while len(handled) < count:
+                time.sleep(0.005)
+        ended.set()
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        threading.Thread(
+            target=interrupt_twice_then_end, args=(threading.main_thread().ident,), daemon=True
+        ).start()
+        is_set, interruption = _threads.wait_through_interrupts(ended, timeout=60)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert is_set and len(handled) == 2
+    assert isinstance(interruption, KeyboardInterrupt) and interruption.args == (1,)
+
+
+def test_a_wait_through_interrupts_gives_up_after_its_timeout():
+    start = time.monotonic()
+    assert _threads.wait_through_interrupts(threading.Event(), timeout=0.05) == (False, None)
+    assert time.monotonic() - start < 5

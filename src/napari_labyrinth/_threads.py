@@ -1,16 +1,23 @@
-"""Helper threads that start without waiting: the package's one thread primitive.
+"""Thread primitives: helper threads that start without waiting, waits Ctrl-C cannot cut short.
 
 ``threading.Thread.start()`` waits until the new thread runs, for long when its
 core is busy. Work split among threads that the caller
 joins (it takes a share itself) need not wait for that: :func:`start_helper`
 starts a thread and returns at once, with a lock released when the thread's
 work is done.
+
+Python raises ``KeyboardInterrupt`` (Ctrl-C, or SIGTERM as the command line
+handles it) wherever the main thread waits, and an interrupted wait does not
+stop what it waited for: a thread still writing into a file that the caller
+then removes makes it again. :func:`wait_through_interrupts` waits on, and
+hands the interruption back to be raised once what it waited for is over.
 """
 
 from __future__ import annotations
 
 import _thread
 import threading
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -47,3 +54,39 @@ def start_helper(work: Callable[..., Any], *arguments: Any) -> threading.Lock:
     except RuntimeError:  # no thread to be had: the caller takes the helper's work
         done.release()
     return done
+
+
+def wait_through_interrupts(
+    event: threading.Event, timeout: float | None = None
+) -> tuple[bool, BaseException | None]:
+    """Wait until ``event`` is set, or ``timeout`` seconds have passed, through interruptions.
+
+    Parameters
+    ----------
+    event : threading.Event
+        Set by the thread waited for when it is done.
+    timeout : float, optional
+        The most seconds to wait; None waits as long as it takes.
+
+    Returns
+    -------
+    set : bool
+        Whether ``event`` was set (False: the wait timed out).
+    interruption : BaseException or None
+        The first exception raised in the waiting thread meanwhile (a
+        ``KeyboardInterrupt``, from a signal's handler), for the caller to raise
+        once it has done what the wait was for; None if there was none.
+    """
+    deadline = None if timeout is None else time.monotonic() + timeout
+    interruption = None
+    while not event.is_set():
+        remaining = None if deadline is None else deadline - time.monotonic()
+        if remaining is not None and remaining <= 0:
+            break
+        try:
+            # an Event, not Thread.join: interrupted, join can take a running thread as
+            # ended (Python 3.11)
+            event.wait(remaining)
+        except BaseException as error:  # noqa: BLE001 - handed back to the caller
+            interruption = interruption or error
+    return event.is_set(), interruption

@@ -8,8 +8,10 @@ limits found by streaming must equal those ``labyrinth()`` finds in memory.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import os
 import signal
+import sys
 import threading
 import time
 from pathlib import Path
@@ -360,6 +362,179 @@ def test_ctrl_c_while_zarr_writes_leaves_no_temporary(tmp_path, monkeypatch, laz
         time.sleep(5)  # not reached unless the write outran the signal
     time.sleep(1.0)  # what zarr still had to write
     assert os.listdir(tmp_path) == []
+
+
+class HeldChunkWrite:
+    """The first chunk written to a zarr store held until released: a block write under way.
+
+    ``entered`` is set once the write is held (the store's check for its metadata passed),
+    ``finished`` once it has written its chunk, recreating the directories that hold it.
+    ``metadata=True`` holds the first write of the store's metadata instead.
+    """
+
+    def __init__(self, monkeypatch, metadata=False):
+        self.entered, self.released, self.finished = (threading.Event() for _ in range(3))
+        original = zarr.storage.LocalStore.set
+        held = self
+
+        def is_held(key):
+            return key.endswith("zarr.json") if metadata else "/c/" in f"/{key}"
+
+        async def set_held(store, key, value):
+            if not is_held(key) or held.entered.is_set():
+                return await original(store, key, value)
+            held.entered.set()
+            await asyncio.to_thread(held.released.wait, 60)
+            try:
+                return await original(store, key, value)
+            finally:
+                held.finished.set()
+
+        monkeypatch.setattr(zarr.storage.LocalStore, "set", set_held)
+
+    @contextlib.contextmanager
+    def released_when_raised(self, ready: threading.Event, seconds: float = 1.0):
+        """Release the write as soon as the block has raised, once ``ready`` is set; or
+        ``seconds`` later if the block is still waiting for the write (as it must)."""
+        raised = threading.Event()
+
+        def release():
+            ready.wait(60)
+            raised.wait(seconds)
+            self.released_at = time.monotonic()
+            self.released.set()
+
+        threading.Thread(target=release, daemon=True).start()
+        try:
+            yield
+        finally:
+            raised.set()
+            assert self.finished.wait(60), "the held block write never ended"
+
+
+def _started_by(*module) -> bool:
+    """Whether the main thread starts a thread from ``module`` (``"lazy", "blocks.py"``)."""
+    if threading.current_thread() is not threading.main_thread():
+        return False  # started by a block writer, or by zarr for its I/O
+    frame = sys._getframe(1)
+    while frame is not None:
+        if Path(frame.f_code.co_filename).parts[-2:] == module:
+            return True
+        frame = frame.f_back
+    return False
+
+
+def test_ctrl_c_as_the_store_creating_thread_starts_leaves_no_temporary(tmp_path, monkeypatch):
+    # the thread that creates the store (its metadata) was started with Thread.start, which
+    # waits for it to run: Ctrl-C handled there left it running, unknown to the writer,
+    # which removed the temporary, and the metadata written then made it again
+    held = HeldChunkWrite(monkeypatch, metadata=True)
+    real_start = threading.Thread.start
+    interrupted = []
+
+    def start(thread):
+        real_start(thread)
+        if not interrupted and _started_by("io", "zarr.py"):
+            interrupted.append(thread)
+            raise KeyboardInterrupt  # as the handler of SIGINT does, the thread running
+
+    monkeypatch.setattr(threading.Thread, "start", start)
+    with held.released_when_raised(held.entered), contextlib.suppress(KeyboardInterrupt):
+        file_io.write_array(tmp_path / "out.zarr", textured((1, 64, 64)), plane_axes=(-2, -1))
+    assert os.listdir(tmp_path) == (["out.zarr"] if not interrupted else [])
+
+
+def test_ctrl_c_as_a_block_writer_thread_starts_leaves_no_temporary(tmp_path, monkeypatch):
+    # Python runs Ctrl-C's handler where the main thread waits, here in Thread.start() as
+    # the pool took on a thread for a block: the thread ran on, unknown to the pool shut
+    # down after the interrupt, and wrote its block into the temporary once it was removed
+    from dask.callbacks import Callback
+
+    held = HeldChunkWrite(monkeypatch)
+    real_start = threading.Thread.start
+    interrupted = []
+
+    def start(thread):
+        real_start(thread)
+        if not interrupted and _started_by("lazy", "blocks.py"):
+            interrupted.append(thread)
+            raise KeyboardInterrupt  # as the handler of SIGINT does, the thread running
+
+    monkeypatch.setattr(threading.Thread, "start", start)
+    array = da.from_array(textured((1, 64, 64)), chunks=(1, 64, 64))
+    # dask's computation ends (interrupted) once the thread is writing its block
+    the_block_is_written = Callback(finish=lambda *_: held.entered.wait(60))
+    with (
+        held.released_when_raised(held.entered),
+        the_block_is_written,
+        pytest.raises(KeyboardInterrupt),
+    ):
+        file_io.write_array(tmp_path / "out.zarr", array, plane_axes=(-2, -1))
+    assert interrupted, "no thread was started to write the block"
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_kill"), reason="POSIX signals")
+def test_a_second_ctrl_c_while_a_block_is_written_leaves_no_temporary(tmp_path, monkeypatch):
+    # the first Ctrl-C had the run wait for the block being written; a second one ended
+    # the wait (Thread.join), the temporary was removed, and the block's write made it again
+    held = HeldChunkWrite(monkeypatch)
+    handled, twice = [], threading.Event()
+
+    def handler(signum, frame):
+        handled.append(signum)
+        raise KeyboardInterrupt
+
+    def interrupt_twice(main_thread):
+        held.entered.wait(60)
+        for count in (1, 2):
+            signal.pthread_kill(main_thread, signal.SIGINT)
+            while len(handled) < count:
+                time.sleep(0.005)
+        twice.set()
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        threading.Thread(
+            target=interrupt_twice, args=(threading.main_thread().ident,), daemon=True
+        ).start()
+        array = da.from_array(textured((1, 64, 64)), chunks=(1, 64, 64))
+        with held.released_when_raised(twice), pytest.raises(KeyboardInterrupt):
+            file_io.write_array(tmp_path / "out.zarr", array, plane_axes=(-2, -1))
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert handled == [signal.SIGINT, signal.SIGINT]
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_kill"), reason="POSIX signals")
+def test_ctrl_c_twice_while_the_cli_writes_a_block_exits_130_and_leaves_no_temporary(
+    tmp_path, monkeypatch, capsys
+):
+    from napari_labyrinth.cli import _common
+
+    source = store(tmp_path / "in.zarr", textured((1, 64, 64)))
+    held = HeldChunkWrite(monkeypatch)
+    twice = threading.Event()
+
+    def interrupt_twice(main_thread):
+        held.entered.wait(60)
+        signal.pthread_kill(main_thread, signal.SIGINT)
+        while _common._interrupted is None:  # the command's handler has run
+            time.sleep(0.005)
+        signal.pthread_kill(main_thread, signal.SIGINT)
+        twice.set()
+
+    threading.Thread(
+        target=interrupt_twice, args=(threading.main_thread().ident,), daemon=True
+    ).start()
+    with held.released_when_raised(twice):
+        code = render(source, "-o", tmp_path / "out.zarr", *OPTIONS)
+        returned = time.monotonic()
+    assert code == 130
+    assert error_lines(capsys.readouterr().err) == ["napari-labyrinth: error: interrupted"]
+    assert sorted(os.listdir(tmp_path)) == ["in.zarr"]
+    assert returned - held.released_at < 5.0  # once the block is written, not a bound later
 
 
 def test_bad_stores_fail_one_line_each(tmp_path, capsys):

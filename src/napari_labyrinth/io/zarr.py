@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from .._budget import refusal
+from .._threads import start_helper, wait_through_interrupts
 from ..lazy import is_lazy, run_blocks
 from ..provenance import KEY
 from ._arrays import block_chunks, native, plane_count
@@ -325,10 +326,12 @@ def _waited_for(function, *args):
     zarr does its I/O on an event loop of its own, which a KeyboardInterrupt
     in the waiting thread does not stop: a store removed after Ctrl-C was
     written into again, and left behind, by the writes still under way. The
-    interruption (the first, if several) is raised once the function ends.
+    thread is started without a wait (``_threads.start_helper``) that Ctrl-C
+    could end with it running. The interruption (the first, if several) is
+    raised once the function ends.
     """
     outcome = {}
-    ended = threading.Event()  # not Thread.join: interrupted, it can take the thread as ended
+    ended = threading.Event()
 
     def run():
         try:
@@ -338,13 +341,11 @@ def _waited_for(function, *args):
         finally:
             ended.set()
 
-    threading.Thread(target=run, name="napari-labyrinth-zarr-write", daemon=True).start()
-    interruption = None
-    while not ended.is_set():
-        try:
-            ended.wait()
-        except BaseException as error:  # noqa: BLE001 - raised once the write has ended
-            interruption = interruption or error
+    # started without waiting for it to run: a Ctrl-C in Thread.start's wait left it
+    # writing, unknown to this function, into a store the caller then removed
+    if start_helper(run).acquire(blocking=False) and not ended.is_set():
+        run()  # no thread to be had
+    _, interruption = wait_through_interrupts(ended)
     if interruption is not None:
         raise interruption
     if "error" in outcome:

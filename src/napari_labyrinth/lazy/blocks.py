@@ -2,24 +2,104 @@
 
 ``run_blocks`` computes every block and hands it to ``write``, under the
 local threaded scheduler or a ``dask.distributed`` client, holding only a few
-blocks in memory at a time; on failure or interruption nothing it started is
-left running.
+blocks in memory at a time; on failure or interruption no write it started is
+left running, so that the caller may remove what they write into.
+
+Under the local scheduler every write passes a gate (``_WriteGate``): once the run
+fails or is interrupted (Ctrl-C), the gate lets no write start and waits for
+those under way, through further interruptions, before the run raises. A
+thread's block write can outlive the pool that ran it: a Ctrl-C handled as the
+pool starts a thread (``Thread.start`` waits for it) leaves that thread running,
+unknown to the pool, and a second Ctrl-C ends the wait of the pool's shutdown.
 """
 
 from __future__ import annotations
 
 import os
 import sys
+import threading
 import time
+import uuid
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
 
+from .._threads import wait_through_interrupts
 from .errors import computing
 
 ProgressCallback = Callable[[int, int], Any]
+
+#: Seconds a failed or interrupted run waits for the block writes under way (on a cluster:
+#: for its tasks) to end, before it raises and its caller removes what they write into.
+WRITES_END_WITHIN = 60.0
+
+
+class _WritesStopped(RuntimeError):
+    """A block's write refused: the run it belongs to failed or was interrupted."""
+
+
+class _WriteGate:
+    """``write(block, location)`` for the threads of one run, until the run is given up.
+
+    Parameters
+    ----------
+    write : callable
+        ``write(block, location)``, called by the gate while it is open.
+
+    Notes
+    -----
+    A write starts only while the gate is open, and is counted until it
+    returns; :meth:`close` lets no more start and waits for those counted.
+    """
+
+    def __init__(self, write: Callable[[np.ndarray, tuple[tuple[int, int], ...]], Any]):
+        self._write = write
+        self._lock = threading.Lock()
+        self._open = True
+        self._writing = 0
+        self._idle = threading.Event()
+        self._idle.set()
+        self._token = uuid.uuid4().hex
+
+    def __call__(self, block: np.ndarray, location: tuple[tuple[int, int], ...]) -> Any:
+        with self._lock:
+            if not self._open:
+                raise _WritesStopped("the run was stopped: this block is not written")
+            self._writing += 1
+            self._idle.clear()
+        try:
+            return self._write(block, location)
+        finally:
+            with self._lock:
+                self._writing -= 1
+                if self._writing == 0:
+                    self._idle.set()
+
+    def close(self, timeout: float = WRITES_END_WITHIN) -> BaseException | None:
+        """Let no write start, and wait up to ``timeout`` seconds for those under way.
+
+        Interruptions of the wait (Ctrl-C) do not end it early.
+
+        Returns
+        -------
+        BaseException or None
+            The first interruption of the wait, for the caller to raise.
+        """
+        interruption = None
+        while True:  # a Ctrl-C as the lock is taken must not leave the gate open
+            try:
+                with self._lock:
+                    self._open = False
+                break
+            except BaseException as error:  # noqa: BLE001 - handed back to the caller
+                interruption = interruption or error
+        _, during_wait = wait_through_interrupts(self._idle, timeout)
+        return interruption or during_wait
+
+    def __dask_tokenize__(self) -> str:
+        return self._token
 
 
 def current_client():
@@ -84,18 +164,19 @@ def run_blocks(
     if client is not None and on_client:
         _run_on_client(client, array, write, lead, total, progress)
         return
+    gate = _WriteGate(write) if client is None else None  # the local threads' writes
     counts = array.map_blocks(
         _write_block,
-        write=write,
+        write=write if gate is None else gate,
         lead=tuple(lead),
         dtype=np.int64,
         chunks=tuple((1,) * len(c) for c in array.chunks),
         meta=np.empty((0,) * array.ndim, dtype=np.int64),
     )
-    if client is not None:
+    if gate is None:
         _run_futures(client, counts, total, progress)
     else:
-        _run_local(counts, total, progress)
+        _run_local(counts, gate, total, progress)
 
 
 def _write_block(block, write, lead, block_info=None):
@@ -105,7 +186,7 @@ def _write_block(block, write, lead, block_info=None):
     return np.full((1,) * block.ndim, planes, dtype=np.int64)
 
 
-def _run_local(counts, total: int, progress: ProgressCallback | None) -> None:
+def _run_local(counts, gate: _WriteGate, total: int, progress: ProgressCallback | None) -> None:
     from dask.callbacks import Callback  # dask is optional: imported on first use
 
     name = counts.name
@@ -119,14 +200,20 @@ def _run_local(counts, total: int, progress: ProgressCallback | None) -> None:
                 if progress is not None:
                     progress(done, total)
 
-    # Our own pool, so that after a failure the blocks still being written
-    # finish before the caller removes what they write into.
     pool = ThreadPoolExecutor(max_workers=os.cpu_count() or 1)
     try:
         with _Planes(), computing():
             counts.compute(scheduler="threads", pool=pool)
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    except BaseException as error:
+        # no block is written from now on, and those being written end before the caller
+        # removes what they write into; blocks still being rendered are not waited for
+        # after an interruption, and those not started are dropped
+        interruption = gate.close()
+        pool.shutdown(wait=not isinstance(error, KeyboardInterrupt), cancel_futures=True)
+        if interruption is not None and not isinstance(error, KeyboardInterrupt):
+            raise interruption from error
+        raise
+    pool.shutdown(wait=True)
 
 
 def _run_futures(client, counts, total: int, progress: ProgressCallback | None) -> None:
@@ -168,7 +255,7 @@ def _run_on_client(client, array, write, lead, total, progress) -> None:
         raise
 
 
-def _cancel_and_wait(client, futures, timeout: float = 60.0) -> None:
+def _cancel_and_wait(client, futures, timeout: float = WRITES_END_WITHIN) -> None:
     """Cancel ``futures`` and wait until no worker still runs one of them."""
     keys = {future.key for future in futures}
     client.cancel(futures)
