@@ -6,7 +6,9 @@ as a dask array of whole planes (:func:`open_zarr_lazily`). An output is
 written into a hidden directory beside its destination, by the tasks that
 compute its blocks, then renamed into place (:func:`write_zarr`); its axes,
 pixel sizes, channel names and provenance record are its attributes, as an
-OME-Zarr image where OME-Zarr can hold the axes. zarr and dask are optional
+OME-Zarr image where OME-Zarr can hold the axes; an OME-Zarr image rendered in
+memory gets lower resolution levels (``_pyramid``) and multiscale metadata
+written through ome-zarr. zarr, dask and ome-zarr are optional
 (``napari-labyrinth[dask]``) and imported where they are used.
 """
 
@@ -31,6 +33,7 @@ from ._arrays import block_chunks, native, plane_count
 from ._atomic import create_temporary_directory, publish_directory
 from ._errors import ImageFileError, reason_of, refuse_unaffordable_file
 from ._formats import check_storable, is_zarr_store, zarr_root
+from ._pyramid import level_count, pyramid
 from .metadata import (
     SPATIAL_AXES,
     ImageMetadata,
@@ -306,6 +309,7 @@ def _create_zarr_array(zarr, directory: str, array, chunks, metadata, values) ->
     """
     store = directory
     attributes, component = _zarr_attributes(array.shape, metadata)
+    group = None
     if component:
         group = zarr.open_group(store=store, mode="w")
         group.attrs.update(attributes)
@@ -317,7 +321,58 @@ def _create_zarr_array(zarr, directory: str, array, chunks, metadata, values) ->
         target.attrs.update(attributes)
     if values is not None:
         target[...] = values
+        if component:
+            _write_lower_levels(zarr, group, values, chunks, attributes["ome"])
     return store
+
+
+def _write_lower_levels(zarr, group, values: np.ndarray, chunks, ome: dict) -> None:
+    """Add the lower resolution levels of an OME-Zarr image whose full level ``values`` is
+    written at ``0``, as arrays ``1``, ``2``, ... of ``group``, and its metadata, through
+    ome-zarr; without ome-zarr, the image keeps its one level and the metadata written by
+    hand.
+
+    The levels halve Y and X by a local mean (``_pyramid``) until the smaller side is at most
+    ``SMALLEST_SIDE`` long; each level's scale is the full level's times the factor, and a
+    chunk holds one plane, as at the full level. ome-zarr's own ``write_multiscale`` names
+    its levels ``s0``, ``s1``, ... and computes them through dask's default scheduler (a
+    cluster's, if one is set): the arrays are written here, the metadata by
+    ``write_multiscales_metadata``, which checks them against the specification.
+    """
+    try:  # optional: without ome-zarr, one level
+        from ome_zarr.format import FormatV05
+        from ome_zarr.writer import write_multiscales_metadata
+    except ImportError:
+        return
+    multiscale = ome["multiscales"][0]
+    axes = multiscale["axes"]
+    planar = [axis for axis, entry in enumerate(axes) if entry["name"] in ("y", "x")]
+    scale = multiscale["datasets"][0]["coordinateTransformations"][0]["scale"]
+    levels = pyramid(values, planar, level_count(values.shape, planar))
+    datasets = []
+    for number, level in enumerate(levels):
+        if number:
+            plane_chunks = tuple(
+                level.shape[axis] if chunk == values.shape[axis] else chunk
+                for axis, chunk in enumerate(chunks)
+            )
+            group.create_array(
+                str(number), shape=level.shape, chunks=plane_chunks, dtype=level.dtype,
+                fill_value=0,
+            )[...] = level  # fmt: skip
+        factors = [2**number if axis in planar else 1 for axis in range(values.ndim)]
+        transform = {"type": "scale", "scale": [s * f for s, f in zip(scale, factors)]}
+        datasets.append({"path": str(number), "coordinateTransformations": [transform]})
+    extra = {"metadata": {"omero": ome["omero"]}} if "omero" in ome else {}
+    write_multiscales_metadata(
+        group, datasets, fmt=FormatV05(), axes=axes, name=multiscale.get("name"), **extra
+    )
+    if "name" not in multiscale:  # ome-zarr names it after the group ("/") otherwise
+        attributes = dict(group.attrs["ome"])
+        attributes["multiscales"] = [
+            {k: v for k, v in attributes["multiscales"][0].items() if k != "name"}
+        ]
+        group.attrs["ome"] = attributes
 
 
 def _waited_for(function, *args):

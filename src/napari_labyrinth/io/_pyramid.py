@@ -1,0 +1,70 @@
+"""The lower resolution levels of a rendered image: halved in Y and X by a local mean.
+
+A labyrinth's walls are one or two pixels wide. Keeping every second pixel
+(nearest neighbour) drops every second row and column, and with them whole
+walls, so a zoomed-out level would show another pattern than the full one;
+the mean of each 2 × 2 block keeps every wall, a one-pixel wall as a line of
+half its contrast. Integer images are rounded to the nearest value of their
+dtype; a side of odd length repeats its last row or column.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+#: Levels are added while the last one's smaller side (Y, X) is longer than this.
+SMALLEST_SIDE = 256
+
+
+def level_count(shape: Sequence[int], axes: Sequence[int]) -> int:
+    """How many levels (the full one included) an image of ``shape`` gets, halving the
+    ``axes`` until the smaller of them is at most ``SMALLEST_SIDE`` long."""
+    side, count = min(int(shape[axis]) for axis in axes), 1
+    while side > SMALLEST_SIDE:
+        side, count = (side + 1) // 2, count + 1
+    return count
+
+
+def halved(image: np.ndarray, axes: Sequence[int]) -> np.ndarray:
+    """``image`` halved along ``axes`` (sides rounded up): the mean of each 2 × 2 block, in
+    ``image``'s dtype, computed plane by plane (the memory of one plane's mean aside from
+    the result)."""
+    axes = sorted({axis % image.ndim for axis in axes})
+    shape = tuple(
+        (size + 1) // 2 if axis in axes else size for axis, size in enumerate(image.shape)
+    )
+    result = np.empty(shape, image.dtype)
+    others = [axis for axis in range(image.ndim) if axis not in axes]
+    for index in np.ndindex(*(image.shape[axis] for axis in others)):
+        where: list[Any] = [slice(None)] * image.ndim
+        for axis, position in zip(others, index, strict=True):
+            where[axis] = position
+        result[tuple(where)] = _halved_whole(image[tuple(where)])
+    return result
+
+
+def _halved_whole(image: np.ndarray) -> np.ndarray:
+    """``image`` halved along every axis (see ``halved``)."""
+    pad = [(0, size % 2) for size in image.shape]
+    padded = np.pad(image, pad, mode="edge") if any(after for _, after in pad) else image
+    blocks = padded.reshape([part for size in padded.shape for part in (size // 2, 2)])
+    mean = blocks.mean(axis=tuple(range(1, blocks.ndim, 2)), dtype=np.float64)
+    if np.issubdtype(image.dtype, np.integer):
+        info = np.iinfo(image.dtype)
+        mean = np.clip(np.rint(mean), info.min, info.max)
+    elif image.dtype == np.bool_:
+        mean = mean >= 0.5
+    return mean.astype(image.dtype)
+
+
+def pyramid(image: np.ndarray, axes: Sequence[int], levels: int) -> list[np.ndarray]:
+    """``levels`` levels of ``image``: itself, then each the previous one halved along
+    ``axes``."""
+    result = [image]
+    axes = [axis % image.ndim for axis in axes]
+    for _ in range(levels - 1):
+        result.append(halved(result[-1], axes))
+    return result

@@ -1,0 +1,156 @@
+"""OME-Zarr outputs with lower resolution levels: the local-mean pyramid, the levels and
+metadata ome-zarr writes, napari-ome-zarr reading them, and one level without ome-zarr."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+import pytest
+
+from napari_labyrinth import io as file_io
+from napari_labyrinth.io._pyramid import SMALLEST_SIDE, halved, level_count, pyramid
+
+pytest.importorskip("zarr")
+
+RNG = np.random.default_rng(27)
+SIZES = {"Y": (0.5, "micrometer"), "X": (0.25, "micrometer"), "Z": (2.0, "micrometer")}
+
+
+def _metadata(**changes):
+    values = {"axes": "CZYX", "ome": True, "pixel_sizes": SIZES}
+    values.update(channel_names=("dapi", "gfp"), image_name="zstack")
+    values.update(changes)
+    return file_io.ImageMetadata(**values)
+
+
+def _image():
+    # 2 channels, 3 planes, 600 x 1100: levels 600, 300, 150 on the smaller side
+    return RNG.integers(0, 65536, (2, 3, 600, 1100), dtype=np.uint16)
+
+
+def _attributes(path):
+    with open(path / "zarr.json") as handle:
+        return json.load(handle)["attributes"]
+
+
+# --- the pyramid itself (numpy only) ---
+
+
+def test_halving_is_the_local_mean_rounded_in_the_dtype():
+    image = np.array([[0, 255, 10, 11], [0, 255, 10, 12]], np.uint8)
+    np.testing.assert_array_equal(halved(image, (0, 1)), [[128, 11]])  # 127.5 and 10.75
+    floats = np.array([[0.0, 1.0], [1.0, 1.0]], np.float32)
+    assert halved(floats, (0, 1)).dtype == np.float32 and halved(floats, (0, 1))[0, 0] == 0.75
+
+
+def test_a_one_pixel_wall_is_kept_at_half_contrast_not_dropped():
+    # every second pixel (nearest neighbour) would drop the wall in column 3 entirely
+    image = np.zeros((4, 8), np.uint8)
+    image[:, 3] = 200
+    np.testing.assert_array_equal(halved(image, (0, 1))[:, 1], [100, 100])
+    assert image[::2, ::2].max() == 0
+
+
+def test_odd_sides_repeat_their_last_row_and_column():
+    image = np.arange(15, dtype=np.uint16).reshape(3, 5)
+    half = halved(image, (0, 1))
+    assert half.shape == (2, 3)
+    assert half[1, 2] == image[2, 4]  # the corner: four copies of the last pixel
+    assert half[0, 2] == round((image[0, 4] + image[1, 4]) / 2)
+
+
+def test_only_the_named_axes_are_halved():
+    image = RNG.integers(0, 100, (3, 8, 6), dtype=np.uint16)
+    levels = pyramid(image, (-2, -1), 3)
+    assert [level.shape for level in levels] == [(3, 8, 6), (3, 4, 3), (3, 2, 2)]
+    assert levels[0] is image
+
+
+@pytest.mark.parametrize(
+    "side,count",
+    [(SMALLEST_SIDE, 1), (SMALLEST_SIDE + 1, 2), (600, 3), (4096, 5), (40_000, 9)],
+)
+def test_levels_end_when_the_smaller_side_is_at_most_the_smallest_side(side, count):
+    assert level_count((3, side, side * 2), (1, 2)) == count
+
+
+# --- the files ---
+
+
+def test_an_ome_zarr_output_has_its_levels_and_metadata_through_ome_zarr(tmp_path):
+    pytest.importorskip("ome_zarr")
+    image = _image()
+    out = file_io.write_array(tmp_path / "out.zarr", image, metadata=_metadata())
+    ome = _attributes(out)["ome"]
+    multiscale = ome["multiscales"][0]
+    assert multiscale["name"] == "zstack"
+    assert [d["path"] for d in multiscale["datasets"]] == ["0", "1", "2"]
+    scales = [d["coordinateTransformations"][0]["scale"] for d in multiscale["datasets"]]
+    assert scales == [[1.0, 2.0, 0.5, 0.25], [1.0, 2.0, 1.0, 0.5], [1.0, 2.0, 2.0, 1.0]]
+    assert ome["omero"]["channels"] == [{"label": "dapi"}, {"label": "gfp"}]
+    import zarr
+
+    group = zarr.open_group(out, mode="r")
+    assert group["0"].chunks == (1, 1, 600, 1100)  # one plane a chunk, as before
+    assert group["2"].shape == (2, 3, 150, 275) and group["2"].chunks == (1, 1, 150, 275)
+    np.testing.assert_array_equal(group["0"][...], image)  # the full level as rendered
+    np.testing.assert_array_equal(group["1"][...], halved(image, (2, 3)))
+    # the package reads the full level and what the file says about it
+    np.testing.assert_array_equal(file_io.read_image(out), image)
+    back = file_io.read_metadata(out)
+    assert back.axes == "CZYX" and back.pixel_sizes == SIZES and back.ome
+    assert back.channel_names == ("dapi", "gfp") and back.image_name == "zstack"
+
+
+def test_napari_ome_zarr_reads_the_levels_without_a_viewer(tmp_path):
+    pytest.importorskip("ome_zarr")
+    reader_plugin = pytest.importorskip("napari_ome_zarr")
+    image = _image()
+    out = file_io.write_array(tmp_path / "out.zarr", image, metadata=_metadata())
+    reader = reader_plugin.napari_get_reader(str(out))
+    assert reader is not None
+    [(data, kwargs, kind)] = reader(str(out))
+    assert kind == "image"
+    assert [level.shape for level in data] == [
+        (2, 3, 600, 1100), (2, 3, 300, 550), (2, 3, 150, 275)
+    ]  # fmt: skip
+    assert kwargs["channel_axis"] == 0 and kwargs["name"] == ["zstack: dapi", "zstack: gfp"]
+    assert list(kwargs["scale"]) == [2.0, 0.5, 0.25]
+    np.testing.assert_array_equal(np.asarray(data[0]), image)
+
+
+def test_without_ome_zarr_the_output_keeps_one_level_and_its_metadata(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ome_zarr", None)  # import ome_zarr raises ImportError
+    monkeypatch.setitem(sys.modules, "ome_zarr.writer", None)
+    monkeypatch.setitem(sys.modules, "ome_zarr.format", None)
+    image = _image()
+    out = file_io.write_array(tmp_path / "out.zarr", image, metadata=_metadata())
+    multiscale = _attributes(out)["ome"]["multiscales"][0]
+    assert [d["path"] for d in multiscale["datasets"]] == ["0"]
+    np.testing.assert_array_equal(file_io.read_image(out), image)
+    back = file_io.read_metadata(out)
+    assert back.pixel_sizes == SIZES and back.image_name == "zstack"
+    assert back.channel_names == ("dapi", "gfp")
+
+
+def test_a_small_image_has_one_level_and_no_name_made_up(tmp_path):
+    pytest.importorskip("ome_zarr")
+    image = RNG.integers(0, 256, (2, 40, 50), dtype=np.uint8)
+    metadata = _metadata(axes="CYX", pixel_sizes={}, image_name=None)
+    out = file_io.write_array(tmp_path / "out.zarr", image, metadata=metadata)
+    multiscale = _attributes(out)["ome"]["multiscales"][0]
+    assert [d["path"] for d in multiscale["datasets"]] == ["0"]
+    assert "name" not in multiscale  # ome-zarr would name it "/" after the group
+    assert file_io.read_metadata(out).image_name is None
+
+
+def test_a_lazy_result_is_written_with_one_level(tmp_path):
+    da = pytest.importorskip("dask.array")
+    image = _image()
+    lazy = da.from_array(image, chunks=(1, 1, 600, 1100))
+    out = file_io.write_array(tmp_path / "out.zarr", lazy, metadata=_metadata())
+    multiscale = _attributes(out)["ome"]["multiscales"][0]
+    assert [d["path"] for d in multiscale["datasets"]] == ["0"]
+    np.testing.assert_array_equal(file_io.read_image(out), image)
