@@ -370,10 +370,10 @@ def write_array(
         Axes, pixel sizes and provenance record stored with the pixels: as
         for :func:`write_image`; a zarr store keeps them in its attributes,
         as an OME-Zarr image when the metadata come from OME and the axes
-        fit OME-Zarr's rules. An OME-Zarr image of an in-memory array has
-        lower resolution levels too, halved in Y and X by a local mean, when
-        ome-zarr is installed (see ``io._pyramid``); a lazy one has its full
-        level only.
+        fit OME-Zarr's rules. An OME-Zarr image has lower resolution levels
+        too, halved in Y and X by a local mean, when ome-zarr is installed
+        (see ``io._pyramid``); a lazy one gets them once its full level is
+        written, read back plane by plane.
 
     Returns
     -------

@@ -28,15 +28,18 @@ def level_count(shape: Sequence[int], axes: Sequence[int]) -> int:
     return count
 
 
+def halved_shape(shape: Sequence[int], axes: Sequence[int]) -> tuple[int, ...]:
+    """The shape of an image of ``shape`` halved along ``axes`` (sides rounded up)."""
+    axes = {axis % len(shape) for axis in axes}
+    return tuple((size + 1) // 2 if axis in axes else size for axis, size in enumerate(shape))
+
+
 def halved(image: np.ndarray, axes: Sequence[int]) -> np.ndarray:
     """``image`` halved along ``axes`` (sides rounded up): the mean of each 2 × 2 block, in
     ``image``'s dtype, computed plane by plane (the memory of one plane's mean aside from
     the result)."""
     axes = sorted({axis % image.ndim for axis in axes})
-    shape = tuple(
-        (size + 1) // 2 if axis in axes else size for axis, size in enumerate(image.shape)
-    )
-    result = np.empty(shape, image.dtype)
+    result = np.empty(halved_shape(image.shape, axes), image.dtype)
     others = [axis for axis in range(image.ndim) if axis not in axes]
     for index in np.ndindex(*(image.shape[axis] for axis in others)):
         where: list[Any] = [slice(None)] * image.ndim
@@ -58,13 +61,3 @@ def _halved_whole(image: np.ndarray) -> np.ndarray:
     elif image.dtype == np.bool_:
         mean = mean >= 0.5
     return mean.astype(image.dtype)
-
-
-def pyramid(image: np.ndarray, axes: Sequence[int], levels: int) -> list[np.ndarray]:
-    """``levels`` levels of ``image``: itself, then each the previous one halved along
-    ``axes``."""
-    result = [image]
-    axes = [axis % image.ndim for axis in axes]
-    for _ in range(levels - 1):
-        result.append(halved(result[-1], axes))
-    return result

@@ -6,9 +6,9 @@ as a dask array of whole planes (:func:`open_zarr_lazily`). An output is
 written into a hidden directory beside its destination, by the tasks that
 compute its blocks, then renamed into place (:func:`write_zarr`); its axes,
 pixel sizes, channel names and provenance record are its attributes, as an
-OME-Zarr image where OME-Zarr can hold the axes; an OME-Zarr image rendered in
-memory gets lower resolution levels (``_pyramid``) and multiscale metadata
-written through ome-zarr. zarr, dask and ome-zarr are optional
+OME-Zarr image where OME-Zarr can hold the axes, with lower resolution levels
+(``_pyramid``) made plane by plane from its full level, and multiscale
+metadata written through ome-zarr. zarr, dask and ome-zarr are optional
 (``napari-labyrinth[dask]``) and imported where they are used.
 """
 
@@ -33,7 +33,7 @@ from ._arrays import block_chunks, native, plane_count
 from ._atomic import create_temporary_directory, publish_directory
 from ._errors import ImageFileError, reason_of, refuse_unaffordable_file
 from ._formats import check_storable, is_zarr_store, zarr_root
-from ._pyramid import level_count, pyramid
+from ._pyramid import halved, halved_shape, level_count
 from .metadata import (
     SPATIAL_AXES,
     ImageMetadata,
@@ -164,6 +164,8 @@ def write_zarr(path: Path, array, *, overwrite, plane_axes, progress, metadata) 
             array = array.rechunk({axis: -1 for axis in axes})  # no-op for rendered arrays
             write = functools.partial(_write_zarr_block, store)
             run_blocks(array, write, plane_axes=tuple(axes), progress=progress)
+            if store != os.path.abspath(temporary):  # an OME-Zarr image: its lower levels
+                _write_lower_levels_of(zarr, os.path.abspath(temporary), chunks)
         elif progress is not None:
             total = plane_count(array.shape, plane_axes)
             progress(total, total)
@@ -326,18 +328,26 @@ def _create_zarr_array(zarr, directory: str, array, chunks, metadata, values) ->
     return store
 
 
-def _write_lower_levels(zarr, group, values: np.ndarray, chunks, ome: dict) -> None:
-    """Add the lower resolution levels of an OME-Zarr image whose full level ``values`` is
-    written at ``0``, as arrays ``1``, ``2``, ... of ``group``, and its metadata, through
-    ome-zarr; without ome-zarr, the image keeps its one level and the metadata written by
-    hand.
+def _write_lower_levels_of(zarr, directory: str, chunks) -> None:
+    """Add the lower resolution levels of the OME-Zarr image written in ``directory``, read
+    plane by plane from its full level (see ``_write_lower_levels``)."""
+    group = _waited_for(functools.partial(zarr.open_group, store=directory, mode="r+"))
+    _write_lower_levels(zarr, group, group["0"], chunks, dict(group.attrs)["ome"])
 
-    The levels halve Y and X by a local mean (``_pyramid``) until the smaller side is at most
-    ``SMALLEST_SIDE`` long; each level's scale is the full level's times the factor, and a
-    chunk holds one plane, as at the full level. ome-zarr's own ``write_multiscale`` names
-    its levels ``s0``, ``s1``, ... and computes them through dask's default scheduler (a
-    cluster's, if one is set): the arrays are written here, the metadata by
-    ``write_multiscales_metadata``, which checks them against the specification.
+
+def _write_lower_levels(zarr, group, full, chunks, ome: dict) -> None:
+    """Add the lower resolution levels of an OME-Zarr image whose full level (``full``: the
+    values, or the zarr array they were written to) is at ``0``, as arrays ``1``, ``2``, ...
+    of ``group``, and its metadata, through ome-zarr; without ome-zarr, the image keeps its
+    one level and the metadata written by hand.
+
+    The levels halve Y and X by a local mean (``_pyramid``), each from the one above, plane
+    by plane (one plane in memory at a time, whatever the image's size), until the smaller
+    side is at most ``SMALLEST_SIDE`` long; each level's scale is the full level's times
+    the factor, and a chunk holds one plane, as at the full level. ome-zarr's own
+    ``write_multiscale`` names its levels ``s0``, ``s1``, ... and computes them through
+    dask's default scheduler (a cluster's, if one is set): the arrays are written here, the
+    metadata by ``write_multiscales_metadata``, which checks them against the specification.
     """
     try:  # optional: without ome-zarr, one level
         from ome_zarr.format import FormatV05
@@ -347,32 +357,47 @@ def _write_lower_levels(zarr, group, values: np.ndarray, chunks, ome: dict) -> N
     multiscale = ome["multiscales"][0]
     axes = multiscale["axes"]
     planar = [axis for axis, entry in enumerate(axes) if entry["name"] in ("y", "x")]
+    others = [axis for axis in range(full.ndim) if axis not in planar]
     scale = multiscale["datasets"][0]["coordinateTransformations"][0]["scale"]
-    levels = pyramid(values, planar, level_count(values.shape, planar))
-    datasets = []
-    for number, level in enumerate(levels):
-        if number:
-            plane_chunks = tuple(
-                level.shape[axis] if chunk == values.shape[axis] else chunk
-                for axis, chunk in enumerate(chunks)
+    count, above = level_count(full.shape, planar), full
+    for number in range(1, count):
+        shape = halved_shape(above.shape, planar)
+        plane_chunks = tuple(
+            shape[axis] if chunk == full.shape[axis] else chunk
+            for axis, chunk in enumerate(chunks)
+        )
+        level = _waited_for(
+            functools.partial(
+                group.create_array, str(number), shape=shape, chunks=plane_chunks,
+                dtype=full.dtype, fill_value=0,
             )
-            group.create_array(
-                str(number), shape=level.shape, chunks=plane_chunks, dtype=level.dtype,
-                fill_value=0,
-            )[...] = level  # fmt: skip
-        factors = [2**number if axis in planar else 1 for axis in range(values.ndim)]
+        )  # fmt: skip
+        for index in np.ndindex(*(shape[axis] for axis in others)):
+            where: list[Any] = [slice(None)] * full.ndim
+            for axis, position in zip(others, index, strict=True):
+                where[axis] = position
+            plane = np.asarray(above[tuple(where)])
+            # each plane's write waited for: Ctrl-C stops the pass within a plane
+            _waited_for(level.__setitem__, tuple(where), halved(plane, range(plane.ndim)))
+        above = level
+    datasets = []
+    for number in range(count):
+        factors = [2**number if axis in planar else 1 for axis in range(full.ndim)]
         transform = {"type": "scale", "scale": [s * f for s, f in zip(scale, factors)]}
         datasets.append({"path": str(number), "coordinateTransformations": [transform]})
     extra = {"metadata": {"omero": ome["omero"]}} if "omero" in ome else {}
-    write_multiscales_metadata(
-        group, datasets, fmt=FormatV05(), axes=axes, name=multiscale.get("name"), **extra
-    )
+    _waited_for(
+        functools.partial(
+            write_multiscales_metadata, group, datasets, fmt=FormatV05(), axes=axes,
+            name=multiscale.get("name"), **extra,
+        )
+    )  # fmt: skip
     if "name" not in multiscale:  # ome-zarr names it after the group ("/") otherwise
         attributes = dict(group.attrs["ome"])
         attributes["multiscales"] = [
             {k: v for k, v in attributes["multiscales"][0].items() if k != "name"}
         ]
-        group.attrs["ome"] = attributes
+        _waited_for(group.attrs.__setitem__, "ome", attributes)
 
 
 def _waited_for(function, *args):
