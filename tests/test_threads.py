@@ -70,11 +70,13 @@ def test_a_wait_through_interrupts_ends_when_the_event_is_set_and_hands_back_the
         raise KeyboardInterrupt(len(handled))
 
     def interrupt_twice_then_end(main_thread):
-        ended.waited_on.wait(60)
-        for count in (1, 2):
+        for count in (1, 2):  # each Ctrl-C while the main thread waits (not as it unwinds one)
+            ended.waited_on.wait(60)
+            ended.waited_on.clear()
             signal.pthread_kill(main_thread, signal.SIGINT)
             while len(handled) < count:
                 time.sleep(0.005)
+        ended.waited_on.wait(60)
         ended.set()
 
     previous = signal.signal(signal.SIGINT, handler)

@@ -79,14 +79,16 @@ def wait_through_interrupts(
     """
     deadline = None if timeout is None else time.monotonic() + timeout
     interruption = None
-    while not event.is_set():
-        remaining = None if deadline is None else deadline - time.monotonic()
-        if remaining is not None and remaining <= 0:
-            break
+    while True:
+        # the whole loop in the try: an interruption between two waits is taken too
         try:
-            # an Event, not Thread.join: interrupted, join can take a running thread as
-            # ended (Python 3.11)
-            event.wait(remaining)
+            while not event.is_set():
+                remaining = None if deadline is None else deadline - time.monotonic()
+                if remaining is not None and remaining <= 0:
+                    break
+                # an Event, not Thread.join: interrupted, join can take a running thread as
+                # ended (Python 3.11)
+                event.wait(remaining)
+            return event.is_set(), interruption
         except BaseException as error:  # noqa: BLE001 - handed back to the caller
             interruption = interruption or error
-    return event.is_set(), interruption
