@@ -10,7 +10,7 @@ dtype; a side of odd length repeats its last row or column.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -40,13 +40,21 @@ def halved(image: np.ndarray, axes: Sequence[int]) -> np.ndarray:
     the result)."""
     axes = sorted({axis % image.ndim for axis in axes})
     result = np.empty(halved_shape(image.shape, axes), image.dtype)
-    others = [axis for axis in range(image.ndim) if axis not in axes]
-    for index in np.ndindex(*(image.shape[axis] for axis in others)):
-        where: list[Any] = [slice(None)] * image.ndim
+    for where in plane_slices(image.shape, axes):
+        result[where] = _halved_whole(image[where])
+    return result
+
+
+def plane_slices(shape: Sequence[int], axes: Sequence[int]) -> Iterator[tuple[Any, ...]]:
+    """The index of each plane over ``axes`` of an array of ``shape``: every other axis at
+    one position, in C order."""
+    axes = {axis % len(shape) for axis in axes}
+    others = [axis for axis in range(len(shape)) if axis not in axes]
+    for index in np.ndindex(*(shape[axis] for axis in others)):
+        where: list[Any] = [slice(None)] * len(shape)
         for axis, position in zip(others, index, strict=True):
             where[axis] = position
-        result[tuple(where)] = _halved_whole(image[tuple(where)])
-    return result
+        yield tuple(where)
 
 
 def _halved_whole(image: np.ndarray) -> np.ndarray:

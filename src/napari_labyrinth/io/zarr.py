@@ -33,7 +33,7 @@ from ._arrays import block_chunks, native, plane_count
 from ._atomic import create_temporary_directory, publish_directory
 from ._errors import ImageFileError, reason_of, refuse_unaffordable_file
 from ._formats import check_storable, is_zarr_store, zarr_root
-from ._pyramid import halved, halved_shape, level_count
+from ._pyramid import halved, halved_shape, level_count, plane_slices
 from .metadata import (
     SPATIAL_AXES,
     ImageMetadata,
@@ -357,7 +357,6 @@ def _write_lower_levels(zarr, group, full, chunks, ome: dict) -> None:
     multiscale = ome["multiscales"][0]
     axes = multiscale["axes"]
     planar = [axis for axis, entry in enumerate(axes) if entry["name"] in ("y", "x")]
-    others = [axis for axis in range(full.ndim) if axis not in planar]
     scale = multiscale["datasets"][0]["coordinateTransformations"][0]["scale"]
     count, above = level_count(full.shape, planar), full
     for number in range(1, count):
@@ -372,13 +371,10 @@ def _write_lower_levels(zarr, group, full, chunks, ome: dict) -> None:
                 dtype=full.dtype, fill_value=0,
             )
         )  # fmt: skip
-        for index in np.ndindex(*(shape[axis] for axis in others)):
-            where: list[Any] = [slice(None)] * full.ndim
-            for axis, position in zip(others, index, strict=True):
-                where[axis] = position
-            plane = np.asarray(above[tuple(where)])
+        for where in plane_slices(shape, planar):
+            plane = np.asarray(above[where])
             # each plane's write waited for: Ctrl-C stops the pass within a plane
-            _waited_for(level.__setitem__, tuple(where), halved(plane, range(plane.ndim)))
+            _waited_for(level.__setitem__, where, halved(plane, range(plane.ndim)))
         above = level
     datasets = []
     for number in range(count):
