@@ -47,6 +47,7 @@ from ..io import (
 )
 from ..lazy import ComputeError, is_lazy, rendering_tone_limits
 from ..provenance import file_checksum, input_record, rendering_record
+from ..streaming import streams
 from ..window import window_for
 from ._common import (
     EXIT_FAILED,
@@ -62,6 +63,7 @@ from ._common import (
     raise_if_interrupted,
 )
 from .options import SCHEDULER_TIMEOUT, render_options
+from .stream_plane import render_streamed
 
 #: Suffix a directory batch gives the rendering of an input in a lossy format, or in
 #: one that holds no provenance record.
@@ -71,9 +73,10 @@ LOSSLESS_SUFFIX = ".png"
 #: its axes, pixel sizes and channel names are OME's.
 BIOIO_SUFFIX = ".ome.tif"
 
-#: What the second progress bar counts: passes over a plane (in memory), or planes
-#: written (a lazy rendering, computed as it is written).
-PROGRESS_LABELS = {"pass": "passes", "plane": "planes written"}
+#: What the second progress bar counts: passes over a plane (in memory), planes
+#: written (a lazy rendering, computed as it is written), or rows written (a plane
+#: larger than memory, rendered band by band).
+PROGRESS_LABELS = {"pass": "passes", "plane": "planes written", "row": "rows written"}
 
 
 @dataclasses.dataclass
@@ -437,13 +440,25 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
     every TIFF are opened lazily: the rendering is a dask array written block
     by block (progress counts planes written); the default tone limits of a
     lazy input are found by ``lazy.rendering_tone_limits`` (exact, in bounded
-    memory) and reported. Other inputs are rendered in memory (progress
-    counts plane-passes).
+    memory) and reported. One plane too large to render in memory is
+    rendered band by band from file to file (``stream_plane``; progress counts
+    rows written). Other inputs are rendered in memory (progress counts
+    plane-passes).
     """
 
     scene = getattr(args, "scene", None)
     metadata = read_metadata(job.input, scene=scene)
     channel_axis = input_channel_axis(metadata, args.channel_axis)
+    mode = "stack" if args.stack else "sweep" if "parameter" in options else "single"
+    plane = None
+    if mode == "single" and channel_axis is None and args.scheduler is None:
+        plane = streams(job.input)  # one plane too large for memory: rendered band by band
+    if plane is not None:
+        _check_colour(job.input, options.get("colour"), plane.shape, channel_axis, {})
+        rendered = metadata.with_channel_axis(channel_axis)
+        render_streamed(job.input, job.output, plane, rendered, options,
+                        overwrite=args.overwrite, progress=progress, note=_note)  # fmt: skip
+        return
     lazy = True if args.scheduler is not None else None
     image = open_image(job.input, lazy=lazy, channel_axis=channel_axis, scene=scene)
     if image.dtype.kind == "b":  # a 1-bit PNG or TIFF: the API would name only its dtype
@@ -472,7 +487,6 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
                 "kept as it is, not rendered, as alpha would be"
             )
     _check_colour(job.input, options.get("colour"), image.shape, channel_axis, kwargs)
-    mode = "stack" if args.stack else "sweep" if "parameter" in options else "single"
     extra = 0 if mode == "single" else 1
     rendered = metadata.with_channel_axis(channel_axis)  # as --channel-axis read it
     chunked = is_lazy(image)

@@ -195,30 +195,41 @@ def write_tiff(handle, array: np.ndarray, metadata: ImageMetadata | None) -> Non
 
 def write_tiff_lazily(path: Path, array, *, overwrite, plane_axes, progress, metadata) -> None:
     """Write a dask array to a TIFF file block by block, atomically (see ``write_array``)."""
-    import tifffile
-
     check_writable(path, "TIFF", array, overwrite)
     array = native(array)
+    with tiff_being_written(
+        path, array.shape, array.dtype, overwrite=overwrite, metadata=metadata
+    ) as write:
+        run_blocks(array, write, plane_axes=plane_axes, on_client=True, progress=progress)
+
+
+@contextlib.contextmanager
+def tiff_being_written(path: Path, shape, dtype, *, overwrite, metadata):
+    """A TIFF file of ``shape`` and ``dtype`` created beside ``path`` with its final size and
+    metadata, uncompressed, its pixels contiguous; yields ``write(block, location)``, which
+    writes a block of C-contiguous pixels at its place (``location``: a ``(start, stop)``
+    per axis); the file takes ``path``'s name once the block ends, and is removed if it
+    fails or is interrupted."""
+    import tifffile
+
+    shape, dtype = tuple(int(n) for n in shape), np.dtype(dtype)
     made: list[Path] = []
     with published(made, path, overwrite=overwrite):
         temporary, handle = create_temporary(path.parent, path.name, made)
         handle.close()
         offset, _ = tifffile.imwrite(
             temporary,
-            shape=array.shape,
-            dtype=array.dtype,
+            shape=shape,
+            dtype=dtype,
             returnoffset=True,
-            **tiff_options(array.shape, array.dtype, metadata),
+            **tiff_options(shape, dtype, metadata),
         )
         with tifffile.TiffFile(temporary) as created:  # the planes must be contiguous
             if created.series[0].dataoffset != offset:
                 raise ImageFileError(path, "tifffile did not lay the planes out contiguously")
         fd = os.open(temporary, os.O_RDWR | getattr(os, "O_BINARY", 0))
         try:
-            write = functools.partial(
-                _write_contiguous, fd, offset, tuple(array.shape), array.dtype.itemsize
-            )
-            run_blocks(array, write, plane_axes=plane_axes, on_client=True, progress=progress)
+            yield functools.partial(_write_contiguous, fd, offset, shape, dtype.itemsize)
             os.fsync(fd)
         finally:
             os.close(fd)

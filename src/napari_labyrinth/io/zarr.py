@@ -328,21 +328,23 @@ def _create_zarr_array(zarr, directory: str, array, chunks, metadata, values) ->
     return store
 
 
-def _write_lower_levels_of(zarr, directory: str, chunks) -> None:
+def _write_lower_levels_of(zarr, directory: str, chunks, rows: int | None = None) -> None:
     """Add the lower resolution levels of the OME-Zarr image written in ``directory``, read
-    plane by plane from its full level (see ``_write_lower_levels``)."""
+    plane by plane (or ``rows`` rows by ``rows`` rows) from its full level (see
+    ``_write_lower_levels``)."""
     group = _waited_for(functools.partial(zarr.open_group, store=directory, mode="r+"))
-    _write_lower_levels(zarr, group, group["0"], chunks, dict(group.attrs)["ome"])
+    _write_lower_levels(zarr, group, group["0"], chunks, dict(group.attrs)["ome"], rows)
 
 
-def _write_lower_levels(zarr, group, full, chunks, ome: dict) -> None:
+def _write_lower_levels(zarr, group, full, chunks, ome: dict, rows: int | None = None) -> None:
     """Add the lower resolution levels of an OME-Zarr image whose full level (``full``: the
     values, or the zarr array they were written to) is at ``0``, as arrays ``1``, ``2``, ...
     of ``group``, and its metadata, through ome-zarr; without ome-zarr, the image keeps its
     one level and the metadata written by hand.
 
     The levels halve Y and X by a local mean (``_pyramid``), each from the one above, plane
-    by plane (one plane in memory at a time, whatever the image's size), until the smaller
+    by plane (one plane in memory at a time, whatever the image's size; with ``rows``, a
+    plane larger than memory: ``2 * rows`` of its rows at a time), until the smaller
     side is at most ``SMALLEST_SIDE`` long; each level's scale is the full level's times
     the factor, and a chunk holds one plane, as at the full level. ome-zarr's own
     ``write_multiscale`` names its levels ``s0``, ``s1``, ... and computes them through
@@ -372,9 +374,9 @@ def _write_lower_levels(zarr, group, full, chunks, ome: dict) -> None:
             )
         )  # fmt: skip
         for where in plane_slices(shape, planar):
-            plane = np.asarray(above[where])
-            # each plane's write waited for: Ctrl-C stops the pass within a plane
-            _waited_for(level.__setitem__, where, halved(plane, range(plane.ndim)))
+            for part, halved_part in _halved_parts(above, where, planar[0], rows):
+                # each part's write waited for: Ctrl-C stops the pass within a plane
+                _waited_for(level.__setitem__, halved_part, halved(part, range(part.ndim)))
         above = level
     datasets = []
     for number in range(count):
@@ -394,6 +396,21 @@ def _write_lower_levels(zarr, group, full, chunks, ome: dict) -> None:
             {k: v for k, v in attributes["multiscales"][0].items() if k != "name"}
         ]
         _waited_for(group.attrs.__setitem__, "ome", attributes)
+
+
+def _halved_parts(above, where, row_axis: int, rows: int | None):
+    """The parts of the plane ``above[where]`` halved at a time, and where each one's half
+    goes in the level below: the whole plane, or (``rows``) ``2 * rows`` rows at a time
+    (a 2 x 2 block never straddles two parts: the same halves)."""
+    if rows is None:
+        yield np.asarray(above[where]), where
+        return
+    height = above.shape[row_axis]
+    for start in range(0, height, 2 * rows):
+        part, below = list(where), list(where)
+        part[row_axis] = slice(start, min(height, start + 2 * rows))
+        below[row_axis] = slice(start // 2, (min(height, start + 2 * rows) + 1) // 2)
+        yield np.asarray(above[tuple(part)]), tuple(below)
 
 
 def _waited_for(function, *args):

@@ -1,0 +1,221 @@
+"""One plane larger than memory, read and written band of rows by band of rows.
+
+A zarr store or TIFF file holding one grey plane (:func:`open_plane_bands`)
+is read a band of rows at a time: a zarr array through its chunks, a TIFF
+file's contiguous pixels straight from the file (``os.pread``), its strips or
+tiles otherwise (tifffile's zarr store of the file), never the whole page. A
+plane is written (:func:`plane_bands_written`) into a zarr store chunked by
+bands of rows, or a TIFF file created with its final size and metadata,
+uncompressed; each atomically, as :func:`napari_labyrinth.io.write_array`
+writes: beside the destination, renamed into place once complete, removed on a
+failure or Ctrl-C, and an existing one replaced only with ``overwrite``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from .._budget import memory_limit
+from ._arrays import native
+from ._atomic import create_temporary_directory, publish_directory
+from ._errors import ImageFileError, require_file
+from ._formats import check_storable, check_writable, image_format, input_format, is_zarr_store
+from .metadata import ImageMetadata
+
+
+class PlaneBands:
+    """The one 2-D plane of a zarr store or TIFF file, read by bands of rows.
+
+    Attributes
+    ----------
+    path : Path
+    shape : (int, int)
+    dtype : numpy.dtype
+        In native byte order, as :meth:`read` returns the rows.
+    chunk_rows : int
+        Rows of the file's own chunks or strips (1 for contiguous pixels): bands of a
+        multiple of them read each chunk once.
+    """
+
+    def __init__(self, path: Path, shape, dtype, chunk_rows: int, read_rows):
+        self.path = path
+        self.shape = tuple(int(n) for n in shape)
+        self.dtype = np.dtype(dtype).newbyteorder("=")
+        self.ndim = 2
+        self.chunk_rows = int(chunk_rows)
+        self._read_rows = read_rows
+
+    def read(self, start: int, stop: int) -> np.ndarray:
+        """The rows ``start .. stop - 1``, C-contiguous, in native byte order."""
+        return np.ascontiguousarray(native(self._read_rows(start, stop)))
+
+    def __getitem__(self, key) -> np.ndarray:
+        """``plane[rows, columns]`` (slices): what dask reads a block with."""
+        rows, columns = key if isinstance(key, tuple) else (key, slice(None))
+        start, stop, _ = rows.indices(self.shape[0])
+        return self.read(start, stop)[:, columns]
+
+    def __dask_tokenize__(self):
+        stat = os.stat(self.path)
+        return ("napari-labyrinth-bands", str(self.path), stat.st_mtime_ns, stat.st_size)
+
+
+def open_plane_bands(path: str | os.PathLike) -> PlaneBands | None:
+    """The plane of a zarr store or TIFF file holding one 2-D plane, to read by bands; None
+    for any other file or image (a stack, colour samples, another format).
+
+    Raises
+    ------
+    ImageFileError
+        As the readers of :func:`napari_labyrinth.io.read_image` do for a file
+        they refuse.
+    """
+    path = Path(path)
+    kind = input_format(path)
+    if kind == "ZARR":
+        from .zarr import _open_zarr_array  # zarr is optional: imported on first use
+
+        array = _open_zarr_array(path)
+        if array.ndim != 2:
+            return None
+        return PlaneBands(path, array.shape, array.dtype, array.chunks[0],
+                          lambda start, stop: array[start:stop])  # fmt: skip
+    if kind != "TIFF":
+        return None
+    require_file(path)
+    from .tiff import _cached_tiff, _tiff_file  # tifffile is imported on first use
+
+    with _tiff_file(path) as tif:
+        series = tif.series[0]
+        if len(series.shape) != 2:
+            return None
+        shape, dtype, offset = series.shape, series.dtype, series.dataoffset
+    if offset is not None:  # the pixels are contiguous in the file: read rows at their place
+        row_bytes = shape[1] * dtype.itemsize
+
+        def read_rows(start, stop):
+            with open(path, "rb", buffering=0) as file:
+                data = os.pread(file.fileno(), (stop - start) * row_bytes, offset + start * row_bytes)
+            return np.frombuffer(data, dtype).reshape(stop - start, shape[1])
+
+        return PlaneBands(path, shape, dtype, 1, read_rows)
+    stat = os.stat(path)
+    store = _cached_tiff(os.path.abspath(path), (stat.st_mtime_ns, stat.st_size))
+    return PlaneBands(path, shape, dtype, store.chunks[0],
+                      lambda start, stop: store[start:stop])  # fmt: skip
+
+
+def band_rows(plane: PlaneBands, bytes_per_row: int, limit: int | None = None) -> int:
+    """Rows of the bands a plane is rendered in: about ``BAND_BYTES`` of values a band, at
+    most a quarter of the memory the run may use (``limit``, default ``memory_limit()``,
+    at ``bytes_per_row`` a row), a multiple of the file's chunk rows where they fit.
+
+    Raises
+    ------
+    ImageFileError
+        If even one chunk of the file's rows (or one row) takes more than that memory.
+    """
+    limit = memory_limit() if limit is None else limit
+    height, width = plane.shape
+    affordable = limit // 4 // max(1, bytes_per_row)
+    wanted = max(1, BAND_BYTES // max(1, width * plane.dtype.itemsize))
+    rows = min(wanted, affordable, height)
+    chunk = min(plane.chunk_rows, height)
+    if chunk > affordable or rows < 1:
+        what = f"its chunks of {chunk} rows" if chunk > 1 else "one of its rows"
+        raise ImageFileError(
+            plane.path,
+            f"is a plane of {height} x {width} pixels too large for memory, rendered band by "
+            f"band, but {what} need more memory than this run may use: store it in chunks "
+            "(or strips, tiles) of fewer rows, or set NAPARI_LABYRINTH_MEMORY to allow more",
+        )
+    return max(chunk, rows // chunk * chunk)
+
+
+#: Bytes of values in a band read or written at a time (when memory allows).
+BAND_BYTES = 16 << 20
+
+
+@contextlib.contextmanager
+def plane_bands_written(
+    path: str | os.PathLike,
+    shape,
+    dtype,
+    rows: int,
+    *,
+    overwrite: bool = False,
+    metadata: ImageMetadata | None = None,
+):
+    """A zarr store or TIFF file of one plane, written band by band, atomically.
+
+    Yields ``write(first_row, values)``, which writes the rows ``values``
+    from ``first_row`` on (at most ``rows`` of them; bands in any order). The
+    output takes ``path``'s name once the block ends; a failure or an interruption
+    removes it. A zarr store is chunked by ``rows`` rows; an OME-Zarr image gets its
+    lower resolution levels from its full level, ``2 * rows`` rows at a time.
+
+    Raises
+    ------
+    FileExistsError
+        If ``path`` exists and ``overwrite`` is False.
+    ImageFileError
+        For an output that is neither a zarr store nor a TIFF file, or one that
+        cannot store the plane.
+    """
+    path = Path(path)
+    kind = image_format(path)
+    shape, dtype = tuple(int(n) for n in shape), np.dtype(dtype)
+    placeholder = np.broadcast_to(np.zeros((), dtype), shape)  # no memory
+    if kind == "TIFF":
+        from .tiff import tiff_being_written  # tifffile is imported on first use
+
+        check_writable(path, kind, placeholder, overwrite, metadata)
+        with tiff_being_written(
+            path, shape, dtype, overwrite=overwrite, metadata=metadata
+        ) as write:
+            yield lambda start, values: write(values, ((start, start + len(values)), (0, shape[1])))
+        return
+    if kind != "ZARR":
+        raise ImageFileError(path, "a plane larger than memory is written to .zarr or .tif")
+    yield from _zarr_written(path, placeholder, rows, overwrite, metadata)
+
+
+def _zarr_written(path: Path, placeholder, rows: int, overwrite: bool, metadata):
+    """The body of :func:`plane_bands_written` for a zarr store."""
+    from . import zarr as zarr_io  # zarr is optional: imported on first use
+
+    check_storable(path, "ZARR", placeholder, metadata)
+    if os.path.lexists(path):
+        if not overwrite:
+            raise FileExistsError(f"{path} already exists (use overwrite to replace it)")
+        if not is_zarr_store(path):
+            raise ImageFileError(path, "exists and is not a zarr store; not replacing it")
+    import zarr
+
+    chunks = (min(rows, placeholder.shape[0]), placeholder.shape[1])
+    made: list[Path] = []
+    try:
+        temporary = os.path.abspath(create_temporary_directory(path.parent, path.name, made))
+        store = zarr_io._waited_for(
+            zarr_io._create_zarr_array, zarr, temporary, placeholder, chunks, metadata, None
+        )
+        target = zarr_io._waited_for(lambda: zarr.open_array(store=store, mode="r+"))
+
+        def write(start, values):
+            if not os.path.isdir(temporary):  # abandoned after a failure
+                raise FileNotFoundError(f"the output being written was removed: {temporary}")
+            zarr_io._waited_for(target.__setitem__, slice(start, start + len(values)), values)
+
+        yield write
+        if store != temporary:  # an OME-Zarr image: its lower levels, band by band
+            zarr_io._write_lower_levels_of(zarr, temporary, chunks, rows)
+        publish_directory(Path(temporary), path, overwrite=overwrite)
+    except BaseException:
+        for temporary in made:
+            shutil.rmtree(temporary, ignore_errors=True)
+        raise

@@ -1,0 +1,195 @@
+"""One plane larger than memory, rendered from a file to a file band of rows by band of rows.
+
+A grey plane whose rendering in memory would need more than the run may use
+(``_budget``) is rendered by :func:`render_plane_file` from a zarr store or
+TIFF file to a zarr store or TIFF file: its tone limits found in a streamed
+pass over the file (unless given), then every pass of the algorithm in one
+sweep of bands of rows (``_engine.stream``), each band of the result written
+as soon as the last pass has finished it. Memory holds a few bands, whatever
+the plane's size; the result is the in-memory rendering's bit for bit. The
+command line takes this path for such a plane (:func:`streams`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._budget import refusal
+from ._engine.counts import DIAGNOSTICS_DTYPE
+from ._engine.stream import stream_bytes_per_row, stream_plane, streaming_refusal
+from .core.codes import DIAGNOSTIC_FIELDS
+from .core.parameters import DEFAULT_SEED, SEED, is_auto
+from .core.presets import DEFAULT_PRESET, resolve_parameters
+from .core.tone_scale import resolve_tone_scale
+from .io import ImageFileError, ImageMetadata, release_files
+from .io.bands import PlaneBands, band_rows, open_plane_bands, plane_bands_written
+from .lazy import default_tone_limits
+
+
+@dataclasses.dataclass(frozen=True)
+class StreamedRendering:
+    """What :func:`render_plane_file` wrote.
+
+    Attributes
+    ----------
+    path : Path
+        The output.
+    tone_limits : (float, float)
+        The values mapped to tones 0 and 255.
+    diagnostics : structured ndarray, shape (passes,)
+        The counts of each pass, as :func:`napari_labyrinth.labyrinth` returns them.
+    rows : int
+        Rows of the bands the plane was read, rendered and written in.
+    """
+
+    path: Path
+    tone_limits: tuple[float, float]
+    diagnostics: np.ndarray
+    rows: int
+
+
+def streams(path: str | os.PathLike) -> PlaneBands | None:
+    """The plane of ``path`` if it is rendered band by band: one 2-D plane of a zarr store
+    or TIFF file too large to render in memory here; else None (the file is read as usual).
+
+    Raises
+    ------
+    ImageFileError
+        As the readers do for a file they refuse.
+    """
+    plane = open_plane_bands(path)
+    if plane is None or refusal(plane.shape, plane.dtype) is None:
+        return None
+    return plane
+
+
+def plane_tone_limits(plane: PlaneBands, rows: int | None = None) -> tuple[float, float]:
+    """The default tone limits of ``plane`` (those :func:`napari_labyrinth.labyrinth` would
+    use), found by a streamed pass over its bands of ``rows`` rows."""
+    import dask.array as da  # dask is optional: imported on first use
+
+    if plane.dtype == np.uint8:
+        return 0.0, 255.0
+    rows = rows or _rows(plane, 1)
+    meta = np.empty((0, 0), dtype=plane.dtype)
+    image = da.from_array(plane, chunks=(rows, plane.shape[1]), lock=False, meta=meta)
+    return default_tone_limits(image)
+
+
+def render_plane_file(
+    input: str | os.PathLike,
+    output: str | os.PathLike,
+    *,
+    preset: str = DEFAULT_PRESET,
+    seed: int = DEFAULT_SEED,
+    tone_limits: tuple[float, float] | None = None,
+    overwrite: bool = False,
+    metadata: ImageMetadata | None = None,
+    progress: Callable[[int, int], Any] | None = None,
+    **parameters: Any,
+) -> StreamedRendering:
+    """Render the one plane of a zarr store or TIFF file into another, band by band.
+
+    Parameters
+    ----------
+    input : str or path-like
+        A zarr store or TIFF file holding one 2-D grey plane, read a band of
+        rows at a time (zarr chunks, TIFF strips or tiles of fewer rows than a
+        band's memory; contiguous TIFF pixels are read row by row).
+    output : str or path-like
+        A ``.zarr`` store (chunked by bands of rows) or ``.tif`` file
+        (uncompressed), written atomically.
+    preset, seed, tone_limits, **parameters
+        As for :func:`napari_labyrinth.labyrinth`; without ``tone_limits`` the
+        default ones are found in a pass over the file first.
+        ``variance_threshold="auto"``, ``scan="checkerboard"`` and
+        ``border="wrap"`` are refused: each needs the whole plane at once.
+    overwrite : bool, optional
+        Replace an existing output.
+    metadata : ImageMetadata, optional
+        Stored with the pixels, as :func:`napari_labyrinth.io.write_array` stores it.
+    progress : callable, optional
+        ``progress(rows_written, rows)``.
+
+    Returns
+    -------
+    StreamedRendering
+
+    Raises
+    ------
+    ImageFileError
+        For an input that is not one plane of a zarr store or TIFF file, or
+        whose chunks do not fit in memory, or an output that cannot hold it.
+    FileExistsError
+        If the output exists and ``overwrite`` is False.
+    TypeError, ValueError
+        Naming a bad parameter.
+    """
+    if is_auto(parameters.get("variance_threshold")):
+        raise ValueError(
+            "variance_threshold='auto' probes the whole plane, which does not fit in memory "
+            "here: give a value"
+        )
+    rendering = resolve_parameters(preset, **parameters)
+    seed = SEED.validate(seed)
+    reason = streaming_refusal(rendering)
+    if reason is not None:
+        raise ValueError(f"a plane larger than memory is rendered band by band, and {reason}")
+    input, output = Path(input), Path(output)
+    if input.resolve() == output.resolve():
+        raise ValueError(f"{output}: the output would replace the input")
+    try:
+        plane = open_plane_bands(input)
+        if plane is None:
+            raise ImageFileError(input, "does not hold one 2-D grey plane to render band by band")
+        rows = _rows(plane, rendering.passes)
+        if tone_limits is None:
+            tone_limits = plane_tone_limits(plane, rows)
+        scale = resolve_tone_scale(np.empty(0, plane.dtype), tone_limits)
+        height, width = plane.shape
+        counts = np.zeros((rendering.passes, len(DIAGNOSTIC_FIELDS)), np.int64)
+        bands = (plane.read(start, min(height, start + rows)) for start in range(0, height, rows))
+        rendered = stream_plane(
+            bands, plane.shape, plane.dtype, scale, rendering, seed, rows=rows, counts=counts
+        )
+        with plane_bands_written(
+            output, plane.shape, plane.dtype, rows, overwrite=overwrite, metadata=metadata
+        ) as write:
+            for start, values in _aligned(rendered, rows, plane.shape, plane.dtype):
+                write(start, values)
+                if progress is not None:
+                    progress(start + len(values), height)
+    finally:
+        release_files()
+    limits = (float(scale.low), float(scale.high))
+    return StreamedRendering(output, limits, counts.view(DIAGNOSTICS_DTYPE)[:, 0], rows)
+
+
+def _rows(plane: PlaneBands, passes: int) -> int:
+    """Rows of the bands of ``plane`` rendered in ``passes`` passes."""
+    return band_rows(plane, stream_bytes_per_row(plane.shape[1], plane.dtype, passes))
+
+
+def _aligned(
+    bands: Iterator[tuple[int, np.ndarray]], rows: int, shape, dtype
+) -> Iterator[tuple[int, np.ndarray]]:
+    """``bands`` (consecutive rows, in order) regrouped into bands of ``rows`` rows from row
+    0 on (the last one shorter): each fills whole chunks of the output."""
+    height, width = shape
+    buffer = np.empty((rows, width), dtype)
+    start = filled = 0
+    for _, values in bands:
+        taken = 0
+        while taken < len(values):
+            count = min(rows - filled, len(values) - taken)
+            buffer[filled : filled + count] = values[taken : taken + count]
+            filled, taken = filled + count, taken + count
+            if filled == rows or start + filled == height:
+                yield start, buffer[:filled]
+                start, filled = start + filled, 0
