@@ -171,8 +171,8 @@ def stream_plane(
             source.keep_from(written)
         for k in range(passes):
             tones[k].keep_from(done[k] - 1)  # the row above the next one it updates
-    if written != height or (passes == 0 and read != height):
-        raise ValueError(f"the bands held {max(read, written)} rows of a plane of {height}")
+    if read != height:
+        raise ValueError(f"the bands held {read} rows of a plane of {height}")
 
 
 def _tones(scale: ToneScale, values: np.ndarray) -> np.ndarray:

@@ -1,0 +1,84 @@
+"""One plane streamed band by band (``_engine.stream``): the in-memory rendering, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from napari_labyrinth import labyrinth
+from napari_labyrinth._engine.stream import stream_plane, streaming_refusal
+from napari_labyrinth.core.presets import resolve_parameters
+from napari_labyrinth.core.tone_scale import resolve_tone_scale
+
+SHAPE = (96, 70)
+
+
+def smooth(shape=SHAPE, dtype=np.uint16, seed=0) -> np.ndarray:
+    """A smooth random texture with a few sharp edges, on most of the dtype's range."""
+    rng = np.random.default_rng(seed)
+    walk = rng.standard_normal(shape).cumsum(0).cumsum(1)
+    walk += 40 * (np.add.outer(np.arange(shape[0]), np.arange(shape[1])) % 23 < 4)
+    unit = (walk - walk.min()) / np.ptp(walk)
+    if np.dtype(dtype).kind == "f":
+        return unit.astype(dtype)
+    return (unit * 0.9 * np.iinfo(dtype).max).astype(dtype)
+
+
+def streamed(image, parameters, seed, rows, tone_limits=None):
+    """The plane rendered by ``stream_plane`` from bands of ``rows`` rows; the bands' rows."""
+    scale = resolve_tone_scale(image, tone_limits)
+    bands = (image[start : start + rows] for start in range(0, image.shape[0], rows))
+    result = np.full_like(image, 0)
+    counts = np.zeros((parameters.passes, 6), np.int64)
+    covered = 0
+    for start, values in stream_plane(
+        bands, image.shape, image.dtype, scale, parameters, seed, rows=rows, counts=counts
+    ):
+        assert start == covered  # in order, no gap
+        result[start : start + len(values)] = values
+        covered += len(values)
+    assert covered == image.shape[0]
+    return result, counts
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+@pytest.mark.parametrize("preset", ["paper", "labyrinth"])
+@pytest.mark.parametrize("rows", [1, 2, 7, 16, 200])
+def test_streamed_plane_equals_the_in_memory_rendering(dtype, preset, rows):
+    image = smooth(dtype=dtype)
+    if image.dtype.kind == "f":
+        image[40, 3] = np.nan  # non-finite pixels: kept, never neighbours
+    expected, diagnostics = labyrinth(image, preset=preset, seed=5, return_diagnostics=True)
+    result, counts = streamed(image, resolve_parameters(preset), 5, rows)
+    np.testing.assert_array_equal(result, expected)
+    assert not np.array_equal(result, image, equal_nan=True)
+    np.testing.assert_array_equal(counts, diagnostics.view(np.int64).reshape(counts.shape))
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        {"border": "mirror", "passes": 3},
+        {"border": "nearest", "passes": 2, "include_centre": True},
+        {"scan": "serpentine", "passes": 3},
+        {"on_exhausted": "last_draw", "passes": 0},
+    ],
+    ids=["mirror", "nearest", "serpentine", "no passes"],
+)
+def test_streamed_plane_follows_borders_and_scans(overrides):
+    image = smooth(dtype=np.uint16, seed=3)
+    expected = labyrinth(image, preset="labyrinth", seed=2, **overrides)
+    result, _ = streamed(image, resolve_parameters("labyrinth", **overrides), 2, 5)
+    np.testing.assert_array_equal(result, expected)
+
+
+@pytest.mark.parametrize(
+    "overrides, said",
+    [({"scan": "checkerboard"}, "checkerboard"), ({"border": "wrap"}, "wrap")],
+)
+def test_orders_that_need_the_whole_plane_are_refused(overrides, said):
+    parameters = resolve_parameters("labyrinth", **overrides)
+    assert said in streaming_refusal(parameters)
+    image = smooth()
+    with pytest.raises(ValueError, match=said):
+        streamed(image, parameters, 0, 8)
