@@ -23,6 +23,7 @@ import numpy as np
 from ._budget import refusal
 from ._engine.counts import DIAGNOSTICS_DTYPE
 from ._engine.stream import stream_bytes_per_row, stream_plane, streaming_refusal
+from ._inputs import validate_workers
 from .core.codes import DIAGNOSTIC_FIELDS
 from .core.parameters import DEFAULT_SEED, SEED, is_auto
 from .core.presets import DEFAULT_PRESET, resolve_parameters
@@ -92,6 +93,7 @@ def render_plane_file(
     overwrite: bool = False,
     metadata: ImageMetadata | None = None,
     progress: Callable[[int, int], Any] | None = None,
+    workers: int | None = None,
     **parameters: Any,
 ) -> StreamedRendering:
     """Render the one plane of a zarr store or TIFF file into another, band by band.
@@ -116,6 +118,9 @@ def render_plane_file(
         Stored with the pixels, as :func:`napari_labyrinth.io.write_array` stores it.
     progress : callable, optional
         ``progress(rows_written, rows)``.
+    workers : int, optional
+        Threads (default: every core): each pass's rows run in the exact-order
+        tiles, as a plane's in memory do. The result does not depend on it.
 
     Returns
     -------
@@ -138,6 +143,7 @@ def render_plane_file(
         )
     rendering = resolve_parameters(preset, **parameters)
     seed = SEED.validate(seed)
+    workers = validate_workers(workers)
     reason = streaming_refusal(rendering)
     if reason is not None:
         raise ValueError(f"a plane larger than memory is rendered band by band, and {reason}")
@@ -156,7 +162,8 @@ def render_plane_file(
         counts = np.zeros((rendering.passes, len(DIAGNOSTIC_FIELDS)), np.int64)
         bands = (plane.read(start, min(height, start + rows)) for start in range(0, height, rows))
         rendered = stream_plane(
-            bands, plane.shape, plane.dtype, scale, rendering, seed, rows=rows, counts=counts
+            bands, plane.shape, plane.dtype, scale, rendering, seed, rows=rows, counts=counts,
+            workers=workers,
         )
         with plane_bands_written(
             output, plane.shape, plane.dtype, rows, overwrite=overwrite, metadata=metadata

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from napari_labyrinth import labyrinth
+from napari_labyrinth._engine import stream as stream_module
 from napari_labyrinth._engine.stream import stream_plane, streaming_refusal
 from napari_labyrinth.core.presets import resolve_parameters
 from napari_labyrinth.core.tone_scale import resolve_tone_scale
@@ -24,7 +25,7 @@ def smooth(shape=SHAPE, dtype=np.uint16, seed=0) -> np.ndarray:
     return (unit * 0.9 * np.iinfo(dtype).max).astype(dtype)
 
 
-def streamed(image, parameters, seed, rows, tone_limits=None):
+def streamed(image, parameters, seed, rows, tone_limits=None, workers=1):
     """The plane rendered by ``stream_plane`` from bands of ``rows`` rows; the bands' rows."""
     scale = resolve_tone_scale(image, tone_limits)
     bands = (image[start : start + rows] for start in range(0, image.shape[0], rows))
@@ -32,7 +33,8 @@ def streamed(image, parameters, seed, rows, tone_limits=None):
     counts = np.zeros((parameters.passes, 6), np.int64)
     covered = 0
     for start, values in stream_plane(
-        bands, image.shape, image.dtype, scale, parameters, seed, rows=rows, counts=counts
+        bands, image.shape, image.dtype, scale, parameters, seed, rows=rows, counts=counts,
+        workers=workers,
     ):
         assert start == covered  # in order, no gap
         result[start : start + len(values)] = values
@@ -53,6 +55,23 @@ def test_streamed_plane_equals_the_in_memory_rendering(dtype, preset, rows):
     np.testing.assert_array_equal(result, expected)
     assert not np.array_equal(result, image, equal_nan=True)
     np.testing.assert_array_equal(counts, diagnostics.view(np.int64).reshape(counts.shape))
+
+
+@pytest.mark.parametrize("preset", ["paper", "labyrinth"])
+def test_streamed_plane_in_exact_order_tiles_on_threads(monkeypatch, preset):
+    # every core taken as idle: the rows of each band run in tiles of 16 rows on 2 threads
+    monkeypatch.setattr(stream_module, "idle_cores", lambda: 2)
+    image = smooth(shape=(160, 300), dtype=np.uint16, seed=4)
+    expected, diagnostics = labyrinth(image, preset=preset, seed=1, return_diagnostics=True)
+    calls = []
+    original = stream_module.run_exact_order
+    monkeypatch.setattr(
+        stream_module, "run_exact_order", lambda *a: calls.append(a[-1]) or original(*a)
+    )
+    result, counts = streamed(image, resolve_parameters(preset), 1, 40, workers=2)
+    np.testing.assert_array_equal(result, expected)
+    np.testing.assert_array_equal(counts, diagnostics.view(np.int64).reshape(counts.shape))
+    assert calls and all(region.row_offset >= 0 for region in calls)
 
 
 @pytest.mark.parametrize(

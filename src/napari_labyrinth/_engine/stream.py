@@ -27,7 +27,9 @@ from ..core.codes import DIAGNOSTIC_FIELDS
 from ..core.parameters import LabyrinthParameters
 from ..core.tone_scale import ToneScale, integer_plane_tones, write_changed_values
 from .changes import new_changes, write_changes
+from .cores import idle_cores
 from .passes import pass_kernel_for, pass_parameters
+from .tiles import default_tile, exact_order_refusal, run_exact_order
 
 
 def streaming_refusal(parameters: LabyrinthParameters) -> str | None:
@@ -85,6 +87,7 @@ def stream_plane(
     rows: int,
     plane_index: int = 0,
     counts: np.ndarray | None = None,
+    workers: int = 1,
 ) -> Generator[tuple[int, np.ndarray], None, None]:
     """Render a plane read band by band; yield ``(first_row, values)`` bands of the result.
 
@@ -107,6 +110,11 @@ def stream_plane(
         The most rows of a band of ``bands``.
     counts : (passes, len(DIAGNOSTIC_FIELDS)) int64 array, optional
         The diagnostics, incremented pass by pass.
+    workers : int, optional
+        Threads: with more than one, the rows a pass updates at a time run in
+        the exact-order tiles (``tiles``; the raster scan, any border but
+        ``"wrap"``), on no more threads than idle cores. The result does not
+        depend on it.
 
     Yields
     ------
@@ -126,6 +134,7 @@ def stream_plane(
     kernel = pass_kernel_for(kernel_parameters)
     changes = new_changes(0)  # room for none: the write-back compares every pixel
     floating = dtype.kind == "f"
+    tiled = workers > 1 and exact_order_refusal(parameters) is None
     # each pass holds its kept row, the row it waits below, and what the pass above hands
     # on: a band, and at the plane's end the rows every pass above it was behind
     tones = [_Rows(rows + passes + 4, width, np.float32) for _ in range(passes)]
@@ -155,11 +164,17 @@ def stream_plane(
                 nonfinite = floating and not np.isfinite(
                     window.rows(max(start - 1, window.first), min(stop + 1, window.stop))
                 ).all()
-                kernel(
-                    plane, kernel_parameters,
-                    PlanePass(np.uint64(seed), int(plane_index), k, bool(nonfinite)),
-                    PassRegion(-1, start, stop, 0, -1, window.offset, height), counts[k], changes,
-                )  # fmt: skip
+                plane_pass = PlanePass(np.uint64(seed), int(plane_index), k, bool(nonfinite))
+                region = PassRegion(-1, start, stop, 0, -1, window.offset, height)
+                threads = min(workers, idle_cores()) if tiled else 1  # as run_pass takes them
+                tile = default_tile((rows, width), threads, parameters)
+                if threads > 1 and stop - start > tile[0]:
+                    run_exact_order(
+                        kernel, plane, kernel_parameters, plane_pass, counts[k], changes, *tile,
+                        threads, region,
+                    )  # fmt: skip
+                else:
+                    kernel(plane, kernel_parameters, plane_pass, region, counts[k], changes)
                 if k + 1 < passes:
                     tones[k + 1].append(window.rows(start, stop))
                 done[k] = stop

@@ -66,7 +66,9 @@ def default_tile(
     return rows, int(np.clip(width // (2 * workers), 128, 512))
 
 
-def exact_order_tiles(shape: tuple[int, int], rows: int, diagonals: int) -> list[list[int]]:
+def exact_order_tiles(
+    shape: tuple[int, int], rows: int, diagonals: int, first_row: int = 0
+) -> list[list[int]]:
     """The parallelogram tiles of a plane, band by band of ``rows`` rows.
 
     Tile j of band i holds the pixels with ``i * rows <= y < (i + 1) * rows``
@@ -78,11 +80,12 @@ def exact_order_tiles(shape: tuple[int, int], rows: int, diagonals: int) -> list
     (i + 1, j + 1) not yet, and no other: tile (i, j) may run as soon as
     tile (i - 1, j) (or the whole band above, past its last tile) and tile
     (i, j - 1) are done, beside any other tile. Returns, for every band, the
-    indices j of its non-empty tiles.
+    indices j of its non-empty tiles. With ``first_row``, the bands and tiles of the rows
+    ``first_row <= y < height`` only (band i from row ``first_row + i * rows``).
     """
     height, width = shape
     bands = []
-    for row_start in range(0, height, rows):
+    for row_start in range(first_row, height, rows):
         row_stop = min(height, row_start + rows)
         bands.append(list(range(row_start // diagonals, (row_stop + width - 2) // diagonals + 1)))
     return bands
@@ -98,6 +101,7 @@ def run_exact_order(
     rows: int,
     diagonals: int,
     workers: int,
+    window: PassRegion = WHOLE_PLANE,
 ) -> None:
     """Run the tiles of ``exact_order_tiles`` on threads, each as soon as it may run.
 
@@ -116,11 +120,19 @@ def run_exact_order(
     tile calls the kernel's compiled code for the types of its arguments
     (``_jit.compiled_for``): numba's dispatcher would type its NamedTuples
     again at every call, a few µs a tile.
+
+    ``window`` (its ``row_start``, ``row_stop``, ``row_offset`` and
+    ``plane_height``) runs only the rows ``row_start <= y < row_stop`` of a
+    plane of which ``tones`` holds the rows from ``row_offset`` on (a band of
+    a plane streamed band by band), as one call of the kernel over that
+    window would.
     """
     from ..core._jit import compiled_for  # numba is imported on first use only
 
-    height, rows, diagonals = tones.shape[0], int(rows), int(diagonals)
-    tiles = exact_order_tiles(tones.shape, rows, diagonals)
+    rows, diagonals = int(rows), int(diagonals)
+    first, offset = window.row_start, window.row_offset
+    height = window.row_stop if window.row_stop >= 0 else tones.shape[0] + offset
+    tiles = exact_order_tiles((height, tones.shape[1]), rows, diagonals, first)
     bands = len(tiles)
     workers = min(workers, bands)
     position = [0] * bands  # the index in tiles[band] of the band's next tile
@@ -173,8 +185,12 @@ def run_exact_order(
                         return
                     band = heapq.heappop(ready)
                     j = tiles[band][position[band]]
-                row_stop = min(height, (band + 1) * rows)
-                tile = PassRegion(-1, band * rows, row_stop, j * diagonals, (j + 1) * diagonals)
+                row_start = first + band * rows
+                row_stop = min(height, row_start + rows)
+                tile = PassRegion(
+                    -1, row_start, row_stop, j * diagonals, (j + 1) * diagonals, offset,
+                    window.plane_height,
+                )  # fmt: skip
                 kernel(tones, parameters, plane_pass, tile, own_counts, own_changes)
         except BaseException as error:  # noqa: BLE001 - raised in the caller's thread
             with changed:
