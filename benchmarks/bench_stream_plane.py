@@ -115,7 +115,9 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=8000)
     parser.add_argument("--preset", nargs="+", default=["paper", "labyrinth"])
     parser.add_argument("--repeat", type=int, default=2)
-    parser.add_argument("--budget", default="1G", help="NAPARI_LABYRINTH_MEMORY of the streamed run")
+    parser.add_argument(
+        "--budget", default="1G", help="NAPARI_LABYRINTH_MEMORY of the streamed run"
+    )
     parser.add_argument("--no-in-memory", action="store_true")
     parser.add_argument("--dir", default=tempfile.gettempdir())
     args = parser.parse_args()

@@ -117,8 +117,9 @@ def refusal(shape: Sequence[int], dtype: np.dtype, *, what: str = "it", planes=N
     return (
         f"{what} declares {dims} {np.dtype(dtype).name} pixels ({size}); rendering "
         f"needs about {_bytes_text(needed)}, more than the {_bytes_text(limit)} this run "
-        f"may use: crop or downsample it, store it as a zarr store or TIFF stack of smaller "
-        f"planes (rendered plane by plane), or set {MEMORY_ENV} to allow more"
+        f"may use: crop or downsample it, store it as a zarr store or TIFF file (the command "
+        f"line renders a stack plane by plane, and one plane band by band into a .zarr or .tif "
+        f"output), or set {MEMORY_ENV} to allow more"
     )
 
 

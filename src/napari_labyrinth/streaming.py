@@ -158,11 +158,18 @@ def render_plane_file(
         if tone_limits is None:
             tone_limits = plane_tone_limits(plane, rows)
         scale = resolve_tone_scale(np.empty(0, plane.dtype), tone_limits)
-        height, width = plane.shape
+        height = plane.shape[0]
         counts = np.zeros((rendering.passes, len(DIAGNOSTIC_FIELDS)), np.int64)
         bands = (plane.read(start, min(height, start + rows)) for start in range(0, height, rows))
         rendered = stream_plane(
-            bands, plane.shape, plane.dtype, scale, rendering, seed, rows=rows, counts=counts,
+            bands,
+            plane.shape,
+            plane.dtype,
+            scale,
+            rendering,
+            seed,
+            rows=rows,
+            counts=counts,
             workers=workers,
         )
         with plane_bands_written(

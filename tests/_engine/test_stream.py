@@ -33,7 +33,14 @@ def streamed(image, parameters, seed, rows, tone_limits=None, workers=1):
     counts = np.zeros((parameters.passes, 6), np.int64)
     covered = 0
     for start, values in stream_plane(
-        bands, image.shape, image.dtype, scale, parameters, seed, rows=rows, counts=counts,
+        bands,
+        image.shape,
+        image.dtype,
+        scale,
+        parameters,
+        seed,
+        rows=rows,
+        counts=counts,
         workers=workers,
     ):
         assert start == covered  # in order, no gap

@@ -161,9 +161,12 @@ def stream_plane(
             if stop > start:
                 window = tones[k]
                 plane = window.array
-                nonfinite = floating and not np.isfinite(
-                    window.rows(max(start - 1, window.first), min(stop + 1, window.stop))
-                ).all()
+                nonfinite = (
+                    floating
+                    and not np.isfinite(
+                        window.rows(max(start - 1, window.first), min(stop + 1, window.stop))
+                    ).all()
+                )
                 plane_pass = PlanePass(np.uint64(seed), int(plane_index), k, bool(nonfinite))
                 region = PassRegion(-1, start, stop, 0, -1, window.offset, height)
                 threads = min(workers, idle_cores()) if tiled else 1  # as run_pass takes them
@@ -181,7 +184,10 @@ def stream_plane(
             finished = done[k]
         if done[-1] > written:
             stop = done[-1]
-            yield written, _values(scale, source.rows(written, stop), tones[-1].rows(written, stop))
+            yield (
+                written,
+                _values(scale, source.rows(written, stop), tones[-1].rows(written, stop)),
+            )
             written = stop
             source.keep_from(written)
         for k in range(passes):

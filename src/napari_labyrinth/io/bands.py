@@ -100,7 +100,9 @@ def open_plane_bands(path: str | os.PathLike) -> PlaneBands | None:
 
         def read_rows(start, stop):
             with open(path, "rb", buffering=0) as file:
-                data = os.pread(file.fileno(), (stop - start) * row_bytes, offset + start * row_bytes)
+                data = os.pread(
+                    file.fileno(), (stop - start) * row_bytes, offset + start * row_bytes
+                )
             return np.frombuffer(data, dtype).reshape(stop - start, shape[1])
 
         return PlaneBands(path, shape, dtype, 1, read_rows)
@@ -178,7 +180,9 @@ def plane_bands_written(
         with tiff_being_written(
             path, shape, dtype, overwrite=overwrite, metadata=metadata
         ) as write:
-            yield lambda start, values: write(values, ((start, start + len(values)), (0, shape[1])))
+            yield lambda start, values: write(
+                values, ((start, start + len(values)), (0, shape[1]))
+            )
         return
     if kind != "ZARR":
         raise ImageFileError(path, "a plane larger than memory is written to .zarr or .tif")
