@@ -77,7 +77,7 @@ def plane_tone_limits(plane: PlaneBands, rows: int | None = None) -> tuple[float
 
     if plane.dtype == np.uint8:
         return 0.0, 255.0
-    rows = rows or _rows(plane, 1)
+    rows = rows or plane_rows(plane, 1)
     meta = np.empty((0, 0), dtype=plane.dtype)
     image = da.from_array(plane, chunks=(rows, plane.shape[1]), lock=False, meta=meta)
     return default_tone_limits(image)
@@ -154,7 +154,7 @@ def render_plane_file(
         plane = open_plane_bands(input)
         if plane is None:
             raise ImageFileError(input, "does not hold one 2-D grey plane to render band by band")
-        rows = _rows(plane, rendering.passes)
+        rows = plane_rows(plane, rendering.passes)
         if tone_limits is None:
             tone_limits = plane_tone_limits(plane, rows)
         scale = resolve_tone_scale(np.empty(0, plane.dtype), tone_limits)
@@ -185,8 +185,14 @@ def render_plane_file(
     return StreamedRendering(output, limits, counts.view(DIAGNOSTICS_DTYPE)[:, 0], rows)
 
 
-def _rows(plane: PlaneBands, passes: int) -> int:
-    """Rows of the bands of ``plane`` rendered in ``passes`` passes."""
+def plane_rows(plane: PlaneBands, passes: int) -> int:
+    """Rows of the bands of ``plane`` rendered in ``passes`` passes (``io.bands.band_rows``).
+
+    Raises
+    ------
+    ImageFileError
+        If even one chunk of the file's rows needs more memory than the run may use.
+    """
     return band_rows(plane, stream_bytes_per_row(plane.shape[1], plane.dtype, passes))
 
 

@@ -177,3 +177,26 @@ def test_the_python_api_streams_an_ome_zarr_with_its_lower_levels(tmp_path, smal
     np.testing.assert_array_equal(group["0"][...], expected)
     np.testing.assert_array_equal(group["1"][...], halved(expected, (0, 1)))
     assert group["0"].chunks == (rendering.rows, SHAPE[1])
+
+
+@pytest.mark.parametrize("byteorder", ["<", ">"])
+def test_an_uncompressed_tiff_is_read_row_by_row_from_the_file(
+    tmp_path, monkeypatch, small_budget, band_reads, byteorder
+):
+    image = smooth(np.uint16)
+    source = tmp_path / "in.tif"
+    tifffile.imwrite(source, image.astype(image.dtype.newbyteorder(byteorder)))  # one strip
+    assert render(source, "-o", tmp_path / "out.tif", "--seed", "2") == 0
+    assert 0 < max(band_reads) < SHAPE[0] // 4
+    monkeypatch.delenv("NAPARI_LABYRINTH_MEMORY")
+    np.testing.assert_array_equal(read_image(tmp_path / "out.tif"), labyrinth(image, seed=2))
+
+
+def test_a_compressed_tiff_of_one_strip_is_refused_naming_it(tmp_path, capsys, small_budget):
+    source = tmp_path / "in.tif"
+    tifffile.imwrite(source, smooth(np.uint16), compression="zlib", rowsperstrip=512)
+    assert render(source, "-o", tmp_path / "out.tif") == 1
+    err = capsys.readouterr().err
+    assert "its chunks of 512 rows need more memory" in err
+    assert "tone limits" not in err  # refused before a pass over the file
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.tif"]

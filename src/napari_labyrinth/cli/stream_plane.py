@@ -15,10 +15,15 @@ from typing import Any
 
 from ..io import ImageFileError, image_format
 from ..provenance import file_checksum, input_record, rendering_record
-from ..streaming import plane_tone_limits, render_plane_file
+from ..core.parameters import without_auto
+from ..core.presets import DEFAULT_PRESET, resolve_parameters
+from ..streaming import plane_rows, plane_tone_limits, render_plane_file
 
 #: Outputs a plane larger than memory is written to, a band of rows at a time.
 STREAMED_OUTPUTS = ("ZARR", "TIFF")
+
+#: The options of a rendering that are not parameters of the algorithm.
+_NOT_PARAMETERS = ("preset", "seed", "tone_limits", "colour")
 
 
 def render_streamed(
@@ -43,6 +48,9 @@ def render_streamed(
             "memory here: it is rendered band by band into a .zarr or .tif output, not "
             f"{output.suffix or output.name}",
         )
+    parameters = {k: v for k, v in options.items() if k not in _NOT_PARAMETERS}
+    preset = options.get("preset", DEFAULT_PRESET)
+    rows = plane_rows(plane, resolve_parameters(preset, **without_auto(parameters)).passes)
     note(
         f"{input}: a plane of {plane.shape[0]} x {plane.shape[1]} {plane.dtype.name} pixels, "
         "too large to render in memory here: rendered band by band"
@@ -53,7 +61,7 @@ def render_streamed(
             f"{input}: finding the default tone limits (0.5th and 99.5th percentiles) in a "
             "pass over the data; --tone-limits skips it"
         )
-        low, high = plane_tone_limits(plane)
+        low, high = plane_tone_limits(plane, rows)
         kwargs["tone_limits"] = (low, high)
         note(f"{input}: tone limits {low!r} {high!r}")
     source = input_record(

@@ -94,7 +94,8 @@ def open_plane_bands(path: str | os.PathLike) -> PlaneBands | None:
         series = tif.series[0]
         if len(series.shape) != 2:
             return None
-        shape, dtype, offset = series.shape, series.dtype, series.dataoffset
+        shape, offset = series.shape, series.dataoffset
+        dtype = np.dtype(series.dtype).newbyteorder(tif.byteorder)  # as the file stores it
     if offset is not None:  # the pixels are contiguous in the file: read rows at their place
         row_bytes = shape[1] * dtype.itemsize
 
