@@ -112,15 +112,20 @@ def refusal(shape: Sequence[int], dtype: np.dtype, *, what: str = "it", planes=N
     limit = memory_limit()
     if needed <= limit:
         return None
-    dims = " x ".join(str(int(n)) for n in shape)
-    size = _bytes_text(math.prod(int(n) for n in shape) * np.dtype(dtype).itemsize)
     return (
-        f"{what} declares {dims} {np.dtype(dtype).name} pixels ({size}); rendering "
+        f"{what} {declared(shape, dtype)}; rendering "
         f"needs about {_bytes_text(needed)}, more than the {_bytes_text(limit)} this run "
         f"may use: crop or downsample it, store it as a zarr store or TIFF file (the command "
         f"line renders a stack plane by plane, and one plane band by band into a .zarr or .tif "
         f"output), or set {MEMORY_ENV} to allow more"
     )
+
+
+def declared(shape: Sequence[int], dtype: np.dtype) -> str:
+    """``"declares 100000 x 100000 uint8 pixels (9.3 GiB)"``: an image's size, in words."""
+    dims = " x ".join(str(int(n)) for n in shape)
+    size = _bytes_text(math.prod(int(n) for n in shape) * np.dtype(dtype).itemsize)
+    return f"declares {dims} {np.dtype(dtype).name} pixels ({size})"
 
 
 def refuse_unaffordable(

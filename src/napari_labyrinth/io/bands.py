@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._budget import memory_limit
+from .._budget import MEMORY_ENV, declared, memory_limit
 from ._arrays import native
 from ._atomic import create_temporary_directory, publish_directory
 from ._errors import ImageFileError, require_file
@@ -130,12 +130,12 @@ def band_rows(plane: PlaneBands, bytes_per_row: int, limit: int | None = None) -
     rows = min(wanted, affordable, height)
     chunk = min(plane.chunk_rows, height)
     if chunk > affordable or rows < 1:
-        what = f"its chunks of {chunk} rows" if chunk > 1 else "one of its rows"
+        what = f"its chunks of {chunk} rows need" if chunk > 1 else "one of its rows needs"
         raise ImageFileError(
             plane.path,
-            f"is a plane of {height} x {width} pixels too large for memory, rendered band by "
-            f"band, but {what} need more memory than this run may use: store it in chunks "
-            "(or strips, tiles) of fewer rows, or set NAPARI_LABYRINTH_MEMORY to allow more",
+            f"{declared(plane.shape, plane.dtype)}, too large to render in memory here and "
+            f"so rendered band by band, but {what} more memory than this run may use: store "
+            f"it in chunks (or strips, tiles) of fewer rows, or set {MEMORY_ENV} to allow more",
         )
     return max(chunk, rows // chunk * chunk)
 
