@@ -25,7 +25,7 @@ from ._engine.counts import DIAGNOSTICS_DTYPE
 from ._engine.stream import stream_bytes_per_row, stream_plane, streaming_refusal
 from ._inputs import validate_workers
 from .core.codes import DIAGNOSTIC_FIELDS
-from .core.parameters import DEFAULT_SEED, SEED, is_auto
+from .core.parameters import DEFAULT_SEED, SEED, LabyrinthParameters, is_auto
 from .core.presets import DEFAULT_PRESET, resolve_parameters
 from .core.tone_scale import resolve_tone_scale
 from .io import ImageFileError, ImageMetadata, release_files
@@ -68,6 +68,27 @@ def streams(path: str | os.PathLike) -> PlaneBands | None:
     if plane is None or refusal(plane.shape, plane.dtype) is None:
         return None
     return plane
+
+
+def streamed_parameters(preset: str = DEFAULT_PRESET, **parameters: Any) -> LabyrinthParameters:
+    """The parameters of a rendering band by band, refused if it needs the whole plane.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming a bad parameter, ``variance_threshold="auto"``, ``border="wrap"`` or
+        ``scan="checkerboard"``.
+    """
+    if is_auto(parameters.get("variance_threshold")):
+        raise ValueError(
+            "variance_threshold='auto' probes the whole plane, which does not fit in memory "
+            "here: give a value"
+        )
+    rendering = resolve_parameters(preset, **parameters)
+    reason = streaming_refusal(rendering)
+    if reason is not None:
+        raise ValueError(f"a plane larger than memory is rendered band by band, and {reason}")
+    return rendering
 
 
 def plane_tone_limits(plane: PlaneBands, rows: int | None = None) -> tuple[float, float]:
@@ -136,17 +157,9 @@ def render_plane_file(
     TypeError, ValueError
         Naming a bad parameter.
     """
-    if is_auto(parameters.get("variance_threshold")):
-        raise ValueError(
-            "variance_threshold='auto' probes the whole plane, which does not fit in memory "
-            "here: give a value"
-        )
-    rendering = resolve_parameters(preset, **parameters)
+    rendering = streamed_parameters(preset, **parameters)
     seed = SEED.validate(seed)
     workers = validate_workers(workers)
-    reason = streaming_refusal(rendering)
-    if reason is not None:
-        raise ValueError(f"a plane larger than memory is rendered band by band, and {reason}")
     input, output = Path(input), Path(output)
     if input.resolve() == output.resolve():
         raise ValueError(f"{output}: the output would replace the input")

@@ -200,3 +200,22 @@ def test_a_compressed_tiff_of_one_strip_is_refused_naming_it(tmp_path, capsys, s
     assert "its chunks of 512 rows need more memory" in err
     assert "tone limits" not in err  # refused before a pass over the file
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.tif"]
+
+
+@pytest.mark.parametrize(
+    "option, said",
+    [
+        (["--set", "border=wrap"], "border='wrap' makes the first rows neighbours of the last"),
+        (["--set", "scan=checkerboard"], "scan='checkerboard' visits the whole plane"),
+        (["--variance-threshold", "auto"], "variance_threshold='auto' probes the whole plane"),
+    ],
+)
+def test_options_that_need_the_whole_plane_are_refused_before_reading(
+    tmp_path, capsys, small_budget, band_reads, option, said
+):
+    source = written_input(tmp_path / "in.zarr", smooth(np.uint16))
+    assert render(source, "-o", tmp_path / "out.zarr", *option) == 1
+    err = capsys.readouterr().err
+    assert said in err and "tone limits" not in err
+    assert band_reads == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.zarr"]

@@ -13,11 +13,10 @@ import functools
 from pathlib import Path
 from typing import Any
 
+from ..core.presets import DEFAULT_PRESET
 from ..io import ImageFileError, image_format
 from ..provenance import file_checksum, input_record, rendering_record
-from ..core.parameters import without_auto
-from ..core.presets import DEFAULT_PRESET, resolve_parameters
-from ..streaming import plane_rows, plane_tone_limits, render_plane_file
+from ..streaming import plane_rows, plane_tone_limits, render_plane_file, streamed_parameters
 
 #: Outputs a plane larger than memory is written to, a band of rows at a time.
 STREAMED_OUTPUTS = ("ZARR", "TIFF")
@@ -50,7 +49,7 @@ def render_streamed(
         )
     parameters = {k: v for k, v in options.items() if k not in _NOT_PARAMETERS}
     preset = options.get("preset", DEFAULT_PRESET)
-    rows = plane_rows(plane, resolve_parameters(preset, **without_auto(parameters)).passes)
+    rows = plane_rows(plane, streamed_parameters(preset, **parameters).passes)
     note(
         f"{input}: a plane of {plane.shape[0]} x {plane.shape[1]} {plane.dtype.name} pixels, "
         "too large to render in memory here: rendered band by band"
