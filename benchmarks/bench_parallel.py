@@ -88,10 +88,11 @@ def tiled_pass(tones, parameters, workers, tile):
     from napari_labyrinth._engine.passes import pass_kernel_for, pass_parameters
     from napari_labyrinth._engine.tiles import run_exact_order
     from napari_labyrinth.core._kernel_arguments import PlanePass
+    from napari_labyrinth.core.codes import DIAGNOSTIC_FIELDS
 
     kernel_parameters = pass_parameters(parameters)
     labyrinth_pass = pass_kernel_for(kernel_parameters)
-    counts = np.zeros(6, np.int64)
+    counts = np.zeros(len(DIAGNOSTIC_FIELDS), np.int64)
     plane_pass = PlanePass(np.uint64(0), 0, 0, False)
     run_exact_order(
         labyrinth_pass, tones, kernel_parameters, plane_pass, counts, new_changes(0), *tile,
@@ -246,6 +247,7 @@ def tile_times(tones, parameters, tile):
     from napari_labyrinth._engine import exact_order_tiles, new_changes
     from napari_labyrinth._engine.passes import pass_kernel_for, pass_parameters
     from napari_labyrinth.core._kernel_arguments import PassRegion, PlanePass
+    from napari_labyrinth.core.codes import DIAGNOSTIC_FIELDS
 
     kernel_parameters = pass_parameters(parameters)
     labyrinth_pass = pass_kernel_for(kernel_parameters)
@@ -253,7 +255,7 @@ def tile_times(tones, parameters, tile):
     height = tones.shape[0]
     tiles = exact_order_tiles(tones.shape, rows, diagonals)
     plane_pass = PlanePass(np.uint64(0), 0, 0, False)
-    counts = np.zeros(6, np.int64)
+    counts = np.zeros(len(DIAGNOSTIC_FIELDS), np.int64)
     changes = new_changes(0)
     times = []
     for band, js in enumerate(tiles):

@@ -35,10 +35,11 @@ class CReference:
     def run_pass(self, tones, parameters, *, seed=0, plane_index=0, pass_index=0, counts=None,
                  has_nonfinite=None):  # fmt: skip
         from napari_labyrinth._engine.passes import pass_parameters
+        from napari_labyrinth.core.codes import DIAGNOSTIC_FIELDS
 
         assert tones.dtype == np.float32 and tones.flags.c_contiguous and tones.ndim == 2
-        if counts is None:
-            counts = np.zeros(6, np.int64)
+        if counts is None:  # the C pass counts the first six (it has no noise gate)
+            counts = np.zeros(len(DIAGNOSTIC_FIELDS), np.int64)
         if has_nonfinite is None:
             has_nonfinite = not np.isfinite(tones).all()
         kernel = pass_parameters(parameters)

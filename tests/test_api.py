@@ -198,12 +198,15 @@ def test_stack_of_rgb_keeps_the_channel_axis():
 
 def test_sweep_varies_one_parameter_with_one_seed(camera):
     values = (0.05, 0.12, 0.3)
+    ungated = dict(noise_gate=0)  # t alone decides what changes
     sweep, diagnostics = labyrinth_sweep(
-        camera, "mean_threshold", values, seed=9, return_diagnostics=True
+        camera, "mean_threshold", values, seed=9, return_diagnostics=True, **ungated
     )
     assert sweep.shape == (3,) + camera.shape and len(diagnostics) == 3
     for k, value in enumerate(values):
-        np.testing.assert_array_equal(sweep[k], labyrinth(camera, mean_threshold=value, seed=9))
+        np.testing.assert_array_equal(
+            sweep[k], labyrinth(camera, mean_threshold=value, seed=9, **ungated)
+        )
     changed = [(s != camera).mean() for s in sweep]
     assert changed[0] > changed[1] > changed[2]
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import napari_labyrinth
-from napari_labyrinth import api, provenance
+from napari_labyrinth import api, provenance, samples
 from napari_labyrinth.core.presets import resolve_parameters
 from napari_labyrinth.widget.choices import Choices, LayerSnapshot
 from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
@@ -126,3 +126,34 @@ def test_the_layer_metadata_is_a_record_of_the_same_schema():
     assert mode == "stack" and record["input"]["name"] == "cell"
     *_, result = api.labyrinth_steps(data, mode, **arguments)
     np.testing.assert_array_equal(result.image, api.labyrinth_stack(data, seed=0))
+
+
+def test_a_record_from_before_the_noise_gate_reproduces_without_it():
+    image = samples.smectic_batonnets((48, 48), seed=1)
+    source = provenance.input_record("in.tif", image.shape, image.dtype, "0" * 64)
+    record = provenance.rendering_record("single", {"preset": "labyrinth"}, source=source)
+    assert record["arguments"]["noise_gate"] == resolve_parameters("labyrinth").noise_gate > 0
+    del record["arguments"]["noise_gate"], record["parameters"]["noise_gate"]
+    _, arguments = provenance.reproduce_call(record)
+    assert arguments["noise_gate"] == 0.0
+    np.testing.assert_array_equal(
+        napari_labyrinth.labyrinth(image, **arguments),
+        napari_labyrinth.labyrinth(image, noise_gate=0),
+    )
+
+
+def test_the_record_keeps_the_noise_each_plane_measured():
+    image = samples.smectic_batonnets((48, 48), seed=1)
+    rgba = np.stack([image, image, image, np.full_like(image, 255)], axis=-1)
+    result = list(api.labyrinth_steps(rgba, channel_axis=-1))[-1]
+    assert len(result.noise_sigma) == 1  # one luminance plane
+    grey_alpha = np.stack([image, np.full_like(image, 255)])
+    result = list(api.labyrinth_steps(grey_alpha, channel_axis=0, alpha=True))[-1]
+    assert result.noise_sigma[0] > 0 and result.noise_sigma[1] is None  # alpha: not rendered
+    source = provenance.input_record("in.tif", grey_alpha.shape, grey_alpha.dtype, None)
+    record = provenance.rendering_record(
+        "single", {"channel_axis": 0, "alpha": True}, source=source,
+        noise_sigma=result.noise_sigma,
+    )  # fmt: skip
+    assert json.loads(json.dumps(record))["noise_sigma"] == [result.noise_sigma[0], None]
+    assert "noise_sigma" not in provenance.rendering_record("single", {}, source=source)

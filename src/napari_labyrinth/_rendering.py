@@ -25,6 +25,7 @@ import numpy as np
 
 from . import _engine
 from .core.colour import TONES, LuminancePlanes
+from .core.noise import tone_noise_sigma
 from .core.parameters import LabyrinthParameters
 from .core.planes import (
     PlaneLayout,
@@ -101,6 +102,29 @@ def colour_planes(
     return scale, None
 
 
+def noise_sigmas(
+    array: np.ndarray, layout: PlaneLayout, scale: ToneScale, grey: LuminancePlanes | None
+) -> np.ndarray:
+    """The noise of every plane the engine renders, in tones (``core.noise.tone_noise_sigma``):
+    measured once, before the passes, for the noise gate (``noise_gate``).
+
+    Returns
+    -------
+    ndarray of float64
+        Shaped as the rendered planes' leading axes (the luminance layout's
+        in the luminance mode); NaN for alpha planes, which are not rendered.
+    """
+    if grey is None:
+        rendered, source = layout, layout.to_planes(array)
+    else:
+        rendered, scale = layout.luminance_layout(), TONES
+        source = rendered.to_planes(grey.tones)
+    sigmas = np.full(rendered.leading_shape, np.nan)
+    for index in rendered.rendered_indices():
+        sigmas[index] = tone_noise_sigma(source[index], scale)
+    return sigmas
+
+
 def render_planes(
     array: np.ndarray,
     layout: PlaneLayout,
@@ -111,8 +135,12 @@ def render_planes(
     *,
     record_passes: bool,
     workers: int = 1,
+    sigmas: np.ndarray | None = None,
 ) -> Generator[tuple[int, int, np.ndarray], None, tuple[np.ndarray, np.ndarray]]:
     """Render ``array``: :func:`_engine.render`, or in its luminance when ``grey`` is given.
+
+    ``sigmas`` are the planes' noise (:func:`noise_sigmas`), measured by the
+    engine when not given and the noise gate is on.
 
     The same protocol as the engine: yields ``(plane, pass_number, result)``
     after each pass of each plane and returns ``(result, diagnostics)``. In
@@ -122,11 +150,13 @@ def render_planes(
     """
     if grey is None:
         return _engine.render(
-            array, layout, scale, parameters, seed, record_passes=record_passes, workers=workers
-        )
+            array, layout, scale, parameters, seed, record_passes=record_passes,
+            workers=workers, noise_sigmas=sigmas,
+        )  # fmt: skip
     return _render_luminance(
-        array, layout, grey, parameters, seed, record_passes=record_passes, workers=workers
-    )
+        array, layout, grey, parameters, seed, record_passes=record_passes, workers=workers,
+        sigmas=sigmas,
+    )  # fmt: skip
 
 
 def _render_luminance(
@@ -138,6 +168,7 @@ def _render_luminance(
     *,
     record_passes: bool,
     workers: int,
+    sigmas: np.ndarray | None = None,
 ) -> Generator[tuple[int, int, np.ndarray], None, tuple[np.ndarray, np.ndarray]]:
     """:func:`_engine.render` of a colour image in its luminance, with the same protocol.
 
@@ -164,6 +195,7 @@ def _render_luminance(
         seed,
         record_passes=record_passes,
         workers=workers,
+        noise_sigmas=sigmas,
     )
     try:
         while True:

@@ -22,7 +22,7 @@ import numpy as np
 from ._budget import refuse_unaffordable_result
 from ._engine import DIAGNOSTICS_DTYPE, Progress, run_pass
 from ._inputs import prepare_image, validate_workers
-from ._rendering import render_planes
+from ._rendering import noise_sigmas, render_planes
 from .core.colour import LuminancePlanes
 from .core.parameters import (
     DEFAULT_SEED,
@@ -86,11 +86,17 @@ class Result:
     tone_limits : (float, float) or None
         The values mapped to tones 0 and 255 (the default limits found, or
         those given); None for a lazy result whose limits were not given.
+    noise_sigma : tuple of float or None
+        The noise of each plane in tones (flat, in the order of the planes,
+        one per position in the luminance mode; None for alpha), which the noise gate compares the local
+        variance with; None with the gate off and for a lazy result (each
+        block measures its planes the same way).
     """
 
     image: Any
     diagnostics: Any
     tone_limits: tuple[float, float] | None = None
+    noise_sigma: tuple[float | None, ...] | None = None
 
 
 def labyrinth(
@@ -111,6 +117,7 @@ def labyrinth(
     on_exhausted: str | None = None,
     include_centre: bool | None = None,
     scan: str | None = None,
+    noise_gate: float | None = None,
     channel_axis: int | None = None,
     alpha: bool | None = None,
     colour: str | None = None,
@@ -190,6 +197,14 @@ def labyrinth(
         Order of the in-place update from the top-left corner (Sec. 2): rows
         left to right, odd rows right to left, or (not the paper's order)
         the four checkerboard colours of ``(y % 2, x % 2)`` in turn.
+    noise_gate : float, optional
+        k of the noise gate (not in the paper; 0 turns it off, the paper
+        preset's value; the labyrinth preset's is 2): a pixel that Eq. 2 does
+        not keep first is left alone where V of Eq. 1 is at most
+        ``(k sigma) ** 2``, sigma being the noise of its plane in tones,
+        measured once before the passes (Immerkær's estimate,
+        ``napari_labyrinth.core.noise``): black and flat backgrounds stay
+        clean. ``Result.noise_sigma`` holds each plane's sigma.
     channel_axis : int, optional
         Axis of colour channels. With 4 channels the last one is alpha and
         is kept as it is. How the others are rendered is ``colour``.
@@ -513,6 +528,9 @@ def _steps(
     done = 0
     results = []
     limits = (float(scale.low), float(scale.high))
+    sigmas = None  # measured once, for every rendering with the gate on
+    if any(parameters.noise_gate > 0 for parameters, _ in runs):
+        sigmas = noise_sigmas(array, layout, scale, grey)
     for run, (parameters, seed) in enumerate(runs):
         rendering = render_planes(
             array,
@@ -523,6 +541,7 @@ def _steps(
             seed,
             record_passes=mode == "stack",
             workers=workers,
+            sigmas=sigmas,
         )
         while True:
             try:
@@ -532,10 +551,14 @@ def _steps(
                 break
             done += 1
             yield Progress(done, total, run, plane, pass_number, partial, limits)
+    noise = None
+    if sigmas is not None:  # an alpha plane, not rendered, has none
+        noise = tuple(None if np.isnan(v) else float(v) for v in sigmas.ravel())
     if mode == "sweep":
-        yield Result(_stack([image for image, _ in results]), [d for _, d in results], limits)
+        images, diagnostics = [image for image, _ in results], [d for _, d in results]
+        yield Result(_stack(images), diagnostics, limits, noise)
     else:
-        yield Result(*results[0], limits)
+        yield Result(*results[0], limits, noise)
 
 
 def _finish(

@@ -28,6 +28,11 @@ A record is a JSON-ready dict:
     The same facts for reading: the preset, what was changed from it, every
     resolved parameter (Eqs. 1-4 of the paper), the seed, the values mapped
     to tones 0 and 255, and the swept parameter and its values (or None).
+``noise_sigma``
+    Only where the noise gate (``noise_gate``, not in the paper) measured it:
+    the noise of each plane in tones (None for an alpha plane). For reading:
+    a rendering again measures it on the same values, and gets the same
+    numbers.
 ``input``
     What was rendered: ``name`` (a file name, or a layer name), ``sha256``
     of the file's bytes (None for a layer), ``shape`` and ``dtype``.
@@ -95,6 +100,7 @@ def rendering_record(
     tone_limits: Sequence[float] | None = None,
     overrides: Mapping[str, Any] | None = None,
     seed: int | None = None,
+    noise_sigma: Sequence[float] | None = None,
 ) -> dict[str, Any]:
     """The record of ``labyrinth_steps(image, mode, **arguments)`` on ``source``: what the
     command line writes into a file and the widget into a layer's metadata.
@@ -122,6 +128,8 @@ def rendering_record(
     seed : int, optional
         The seed to record; by default that of ``arguments`` (0 if none; a
         sweep of the seed takes it out of ``arguments``).
+    noise_sigma : sequence of float, optional
+        Each rendered plane's noise in tones (``Result.noise_sigma``).
 
     Returns
     -------
@@ -161,6 +169,7 @@ def rendering_record(
         arguments=call,
         sweep=sweep,
         source=source,
+        noise_sigma=noise_sigma,
     )
 
 
@@ -175,6 +184,7 @@ def make_record(
     arguments: Mapping[str, Any],
     sweep: tuple[str, Sequence[Any]] | None,
     source: Mapping[str, Any],
+    noise_sigma: Sequence[float] | None = None,
 ) -> dict[str, Any]:
     """A provenance record (see the module's docstring), JSON-ready.
 
@@ -195,8 +205,10 @@ def make_record(
         The swept parameter and its values.
     source : mapping
         The ``input`` entry (see :func:`input_record`).
+    noise_sigma : sequence of float, optional
+        Each rendered plane's noise in tones (``Result.noise_sigma``).
     """
-    return _plain(
+    record = _plain(
         {
             "schema": SCHEMA,
             "version": __version__,
@@ -212,6 +224,9 @@ def make_record(
             "input": dict(source),
         }
     )
+    if noise_sigma is not None:  # measured by the noise gate: for reading (None: an alpha plane)
+        record["noise_sigma"] = [None if v is None else float(v) for v in noise_sigma]
+    return record
 
 
 def call_arguments(
@@ -372,6 +387,8 @@ def reproduce_call(record: Mapping[str, Any]) -> tuple[str, dict[str, Any]]:
     """
     check(record)
     arguments = dict(record["arguments"])
+    if "noise_gate" not in arguments and "mean_threshold" in arguments:
+        arguments["noise_gate"] = 0.0  # a record from before the gate: rendered without it
     if arguments.get("tone_limits") is not None:
         arguments["tone_limits"] = tuple(arguments["tone_limits"])
     return record["mode"], arguments

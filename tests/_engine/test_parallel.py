@@ -8,7 +8,7 @@ import threading
 import numpy as np
 import pytest
 
-from napari_labyrinth import labyrinth, labyrinth_stack, metrics
+from napari_labyrinth import DIAGNOSTIC_FIELDS, labyrinth, labyrinth_stack, metrics
 
 
 @pytest.fixture(scope="module")
@@ -164,7 +164,7 @@ def _tile_order_results(plane, parameters, rows, diagonals, order):
     kernel_parameters = pass_parameters(parameters)
     labyrinth_pass = pass_kernel_for(kernel_parameters)
     work = plane.copy()
-    counts = np.zeros(6, np.int64)
+    counts = np.zeros(len(DIAGNOSTIC_FIELDS), np.int64)
     plane_pass = PlanePass(np.uint64(3), 1, 2, not np.isfinite(plane).all())
     for band, j in order:
         row_stop = min(plane.shape[0], (band + 1) * rows)
@@ -226,7 +226,7 @@ def test_rectangles_in_wave_order_would_not_equal_the_raster_scan():
                     rectangle_row = PassRegion(-1, y, y + 1, 6 * j + y, 6 * j + 6 + y)
                     labyrinth_pass(
                         rectangles, kernel_parameters, plane_pass, rectangle_row,
-                        np.zeros(6, np.int64), new_changes(0),
+                        np.zeros(len(DIAGNOSTIC_FIELDS), np.int64), new_changes(0),
                     )  # fmt: skip
     assert not np.array_equal(rectangles, serial)
 

@@ -67,3 +67,17 @@ def test_the_widget_hands_its_choices_to_the_plan_as_plain_values(viewer, widget
     viewer.dims.set_current_step(0, 2)
     plan = widget.plan()
     assert plan.source_index == (2,) and plan.arguments["values"] == [1, 3]
+
+
+def test_the_noise_gate_field_follows_the_preset_and_an_edit_overrides_it(viewer, widget):
+    field = widget.fields["noise_gate"]
+    assert field in list(widget.form.reading_box)  # beside the readings, not the paper's
+    assert "not in the paper" in field.tooltip
+    widget.preset.value = "paper"
+    assert field.value == 0.0
+    widget.preset.value = "labyrinth"
+    assert field.value == 2.0
+    field.value = 1.5
+    viewer.add_image(noise((16, 16)), name="dark")
+    assert widget.choices().overrides == {"noise_gate": 1.5}
+    assert widget.plan().arguments["noise_gate"] == 1.5

@@ -105,6 +105,7 @@ def test_a_run_of_the_same_input_and_mode_replaces_the_previous_result(qtbot, vi
     viewer.add_image(noise((32, 32)), name="cell")
     viewer.add_image(noise((32, 32), seed=1), name="other")
     widget.image_layer.value = viewer.layers["cell"]
+    widget.fields["noise_gate"].value = 0.0  # white noise is its own noise: the gate off
     run(qtbot, widget)
     first = viewer.layers["cell · labyrinth"]
     position = viewer.layers.index(first)

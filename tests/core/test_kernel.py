@@ -22,8 +22,9 @@ TONES = tuple(zip(LIMITS[:-1], LIMITS[1:]))
 
 
 def run_kernel(
-    plane, *, limits=LIMITS, tones=TONES, seed=0, plane_index=0, pass_index=0, **options
-):
+    plane, *, limits=LIMITS, tones=TONES, seed=0, plane_index=0, pass_index=0,
+    variance_floor=-1.0, **options,
+):  # fmt: skip
     """One kernel pass on a copy; returns (plane, counts dict)."""
     values = dict(PRESETS["paper"], tone_ranges=limits, tones=tones)
     values.update(options)
@@ -34,6 +35,7 @@ def run_kernel(
         seed=seed,
         plane_index=plane_index,
         pass_index=pass_index,
+        variance_floor=variance_floor,
     )
     return work, dict(zip(DIAGNOSTIC_FIELDS, counts.tolist()))
 
@@ -83,15 +85,22 @@ OPTIONS = {
 OPTION_GRID = [dict(zip(OPTIONS, values)) for values in itertools.product(*OPTIONS.values())]
 
 
+#: Noise gate floors (tones²) of the grid: off, and one that gates the dark and smooth
+#: planes' quieter pixels but not the others.
+VARIANCE_FLOORS = (-1.0, 60.0)
+
+
+@pytest.mark.parametrize("variance_floor", VARIANCE_FLOORS, ids=["gate-off", "gate-on"])
 @pytest.mark.parametrize(
     "grid_options", OPTION_GRID, ids=["-".join(map(str, o.values())) for o in OPTION_GRID]
 )
-def test_kernel_matches_reference_bit_for_bit(grid_options):
+def test_kernel_matches_reference_bit_for_bit(grid_options, variance_floor):
     options = dict(
         grid_options,
         seed=12345,
         plane_index=3,
         pass_index=2,
+        variance_floor=variance_floor,
     )
     seen = dict.fromkeys(DIAGNOSTIC_FIELDS, 0)
     for name, plane in PLANES.items():
@@ -106,6 +115,8 @@ def test_kernel_matches_reference_bit_for_bit(grid_options):
     # the images were chosen so that every branch of the algorithm runs
     if grid_options["variance_action"] == "leave":
         assert seen.pop("pushed") == 0
+    if variance_floor < 0:
+        assert seen.pop("noise_gated") == 0
     assert all(count > 0 for count in seen.values()), seen
 
 
@@ -151,8 +162,47 @@ def test_eq2_keeps_pixels_close_to_their_mean():
     out, counts = run_kernel(plane)
     assert_bitwise_equal(out, plane)
     assert counts == dict(
-        kept_by_mean=3, left_by_variance=0, pushed=0, redrawn=0, out_of_tries=0, skipped=0
-    )
+        kept_by_mean=3, left_by_variance=0, pushed=0, redrawn=0, out_of_tries=0, skipped=0,
+        noise_gated=0,
+    )  # fmt: skip
+
+
+def _gate_plane():
+    """5 x 5 tones: 102 around a ring of 100 and 104 (mean 102, V of Eq. 1 exactly 4)
+    around g = 125, which Eq. 2 does not keep (|125 - 102| / 102 > 0.12); Eq. 2 keeps
+    every other pixel."""
+    plane = np.full((5, 5), 102.0, dtype=np.float32)
+    plane[1:4, 1:4] = [[100.0, 104.0, 100.0], [104.0, 125.0, 104.0], [100.0, 104.0, 100.0]]
+    return plane
+
+
+@pytest.mark.parametrize("condition_order", ["mean_first", "variance_first"])
+def test_the_noise_gate_leaves_a_pixel_whose_variance_is_at_most_the_floor(condition_order):
+    plane = _gate_plane()
+    options = dict(condition_order=condition_order, max_tries=100)
+    out, counts = run_kernel(plane, variance_floor=4.0, **options)
+    assert_bitwise_equal(out, plane)
+    # Eq. 4 first: the gate comes before Eq. 2, and takes quiet pixels Eq. 2 would keep too
+    gated = 1 if condition_order == "mean_first" else 17
+    assert counts["noise_gated"] == gated and counts["kept_by_mean"] == 25 - gated
+    reference, reference_counts = run_reference(plane, variance_floor=4.0, **options)
+    assert_bitwise_equal(out, reference) and counts == reference_counts
+
+
+@pytest.mark.parametrize("condition_order", ["mean_first", "variance_first"])
+def test_the_noise_gate_passes_a_pixel_whose_variance_is_just_above_the_floor(condition_order):
+    plane = _gate_plane()
+    options = dict(condition_order=condition_order, max_tries=100)
+    just_below_four = float(np.nextafter(4.0, 0.0))
+    out, counts = run_kernel(plane, variance_floor=just_below_four, **options)
+    # g is redrawn; Eq. 4 first, the quiet pixels around it are gated before Eq. 2 keeps them
+    gated = 0 if condition_order == "mean_first" else 20
+    assert counts["noise_gated"] == gated and counts["redrawn"] == 1
+    others = np.delete(np.arange(25), 12)  # every pixel but g
+    assert out[2, 2] != 125.0 and (out.ravel()[others] == plane.ravel()[others]).all()
+    reference, reference_counts = run_reference(plane, variance_floor=just_below_four, **options)
+    assert_bitwise_equal(out, reference)
+    assert counts == reference_counts
 
 
 def test_eq2_threshold_is_inclusive():

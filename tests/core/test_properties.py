@@ -36,11 +36,16 @@ options = st.fixed_dictionaries(
 )
 
 
+#: The noise gate's floor in tones²: off, or any floor (0 included).
+variance_floors = st.one_of(st.just(-1.0), st.floats(0, 5000))
+
+
 @SETTINGS
-@given(plane=float_planes, options=options, n_ranges=st.integers(1, 6))
-def test_kernel_equals_the_oracle_on_any_plane(plane, options, n_ranges):
+@given(plane=float_planes, options=options, n_ranges=st.integers(1, 6), floor=variance_floors)
+def test_kernel_equals_the_oracle_on_any_plane(plane, options, n_ranges, floor):
     limits = equal_tone_ranges(n_ranges)
     tones = tuple(zip(limits[:-1], limits[1:]))
+    options = dict(options, variance_floor=floor)
     got, got_counts = run_kernel(plane, limits=limits, tones=tones, **options)
     want, want_counts = reference_pass(plane, range_limits=limits, tones=tones, **options)
     assert_bitwise_equal(got, want)
@@ -48,8 +53,16 @@ def test_kernel_equals_the_oracle_on_any_plane(plane, options, n_ranges):
 
 
 @SETTINGS
-@given(image=uint8_images, options=options, passes=st.integers(0, 3))
-def test_rendering_is_a_pure_function_that_leaves_its_input_alone(image, options, passes):
+@given(
+    image=uint8_images,
+    options=options,
+    passes=st.integers(0, 3),
+    noise_gate=st.one_of(st.just(0.0), st.floats(0, 4)),
+)
+def test_rendering_is_a_pure_function_that_leaves_its_input_alone(
+    image, options, passes, noise_gate
+):
+    options = dict(options, noise_gate=noise_gate)
     before = image.copy()
     first, diagnostics = labyrinth(image, passes=passes, return_diagnostics=True, **options)
     second = labyrinth(image, passes=passes, **options)

@@ -42,6 +42,7 @@ def run_pass(
     workers: int = 1,
     tile: tuple[int, int] | None = None,
     changes: np.ndarray | None = None,
+    variance_floor: float = -1.0,
 ) -> np.ndarray:
     """Run one pass of the numba kernel on a float32 plane of 0-255 tones, in place.
 
@@ -49,7 +50,9 @@ def run_pass(
     ``tones``): ``tones`` must be a C-contiguous 2-D float32 array.
     ``counts``, if given, is an int64 array of ``len(DIAGNOSTIC_FIELDS)`` that
     the pass increments. ``changes``, if given (see ``changes.new_changes``),
-    collects the flat indices of the pixels the pass writes. Returns ``counts``.
+    collects the flat indices of the pixels the pass writes. ``variance_floor``
+    is the noise gate's (``core.noise.variance_floor``; negative: off). Returns
+    ``counts``.
 
     With ``workers > 1`` a large plane runs on several threads: in the
     paper's raster order as parallelogram tiles of ``tile = (rows,
@@ -70,7 +73,10 @@ def run_pass(
         changes = new_changes(0)
     if has_nonfinite is None:
         has_nonfinite = not np.isfinite(tones).all()
-    plane_pass = PlanePass(np.uint64(seed), int(plane_index), int(pass_index), bool(has_nonfinite))
+    plane_pass = PlanePass(
+        np.uint64(seed), int(plane_index), int(pass_index), bool(has_nonfinite),
+        float(variance_floor),
+    )  # fmt: skip
     if parameters.scan == "checkerboard":
         _checkerboard_bands(
             labyrinth_pass, tones, kernel_parameters, plane_pass, counts, changes, workers
@@ -95,17 +101,21 @@ def run_pass(
 
 
 def banded_pass(
-    values, target, work, scale, parameters, *, seed, plane_index, pass_index, counts, changes
-) -> None:
+    values, target, work, scale, parameters, *, seed, plane_index, pass_index, counts, changes,
+    variance_floor=-1.0,
+) -> None:  # fmt: skip
     """One pass of ``core._banded_pass.banded_pass`` over ``work``, the tones of ``values``:
-    made in the first pass, and the values written into ``target`` unless it is None."""
+    made in the first pass, and the values written into ``target`` unless it is None;
+    ``variance_floor`` as for :func:`run_pass`."""
     from ..core import _banded_pass  # numba is imported on first use only
 
     kernel_parameters = pass_parameters(parameters)
     write_out = target is not None
     if not write_out:  # never written then, but typed as written: numba refuses a read-only
         target = np.empty((0, 0), values.dtype)  # array there (``values`` may be one)
-    plane_pass = PlanePass(np.uint64(seed), int(plane_index), int(pass_index), False)
+    plane_pass = PlanePass(
+        np.uint64(seed), int(plane_index), int(pass_index), False, float(variance_floor)
+    )
     _banded_pass.banded_pass(
         values, target, work, _banded_pass.band_rows(values.shape[1]), pass_index == 0,
         write_out, integer_scale(scale, values.dtype), kernel_parameters, plane_pass, counts,

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from .._pages import empty_in_plain_pages
+from ..core.noise import tone_noise_sigma, variance_floor
 from ..core.parameters import LabyrinthParameters
 from ..core.planes import PlaneLayout
 from ..core.tone_scale import ToneScale, fits_banded_pass, integer_plane_tones
@@ -74,8 +75,14 @@ def render(
     *,
     record_passes: bool,
     workers: int = 1,
+    noise_sigmas: np.ndarray | None = None,
 ) -> Generator[tuple[int, int, np.ndarray], None, tuple[np.ndarray, np.ndarray]]:
     """Render every plane of ``image``; yield ``(plane, pass_number, result)`` after each pass.
+
+    With the noise gate on (``parameters.noise_gate > 0``) each plane's noise
+    in tones is ``noise_sigmas[index]`` (an array of ``layout.leading_shape``),
+    or measured on the plane's values before its passes
+    (``core.noise.tone_noise_sigma``) when not given.
 
     With several planes and ``workers > 1`` planes run concurrently on
     threads (the kernel holds no GIL); the workers left over (all of them
@@ -99,6 +106,12 @@ def render(
         if not passes:
             return
         values = source[index]
+        floor = -1.0  # the noise gate's floor (core.noise.variance_floor): off
+        if parameters.noise_gate > 0:
+            sigma = (
+                tone_noise_sigma(values, scale) if noise_sigmas is None else noise_sigmas[index]
+            )
+            floor = variance_floor(parameters.noise_gate, float(sigma))
         if banded:  # tones in and values out, band of rows by band of rows
             work = _banded_tones(values.shape, passes == 1 and not record_passes, parameters)
             changes = new_changes(values.size)
@@ -117,6 +130,7 @@ def render(
                     pass_index=pass_index,
                     counts=counts[(pass_index,) + index],
                     changes=changes,
+                    variance_floor=floor,
                 )
                 yield pass_index + 1
             return
@@ -142,6 +156,7 @@ def render(
                 has_nonfinite=has_nonfinite,
                 workers=max(1, workers // plane_workers),  # spare threads: tiles
                 changes=changes,
+                variance_floor=floor,
             )
             if record_passes:
                 write_back_changes(

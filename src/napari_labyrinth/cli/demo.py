@@ -86,7 +86,10 @@ def _render(input_path: Path, image, mode: str, kwargs: dict):
     for event in labyrinth_steps(image, mode, **kwargs):
         if isinstance(event, Result):
             source = input_record(input_path, image.shape, image.dtype, file_checksum(input_path))
-            record = rendering_record(mode, kwargs, source=source, tone_limits=event.tone_limits)
+            record = rendering_record(
+                mode, kwargs, source=source, tone_limits=event.tone_limits,
+                noise_sigma=event.noise_sigma,
+            )  # fmt: skip
             return event.image, record
     raise AssertionError("labyrinth_steps ends with a Result")
 

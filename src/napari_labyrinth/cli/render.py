@@ -518,13 +518,15 @@ def _render_one(job: _Job, args: argparse.Namespace, options: dict[str, Any], pr
         steps = api.labyrinth_steps(image, mode, **kwargs)  # checks every argument first
         for event in steps:
             if isinstance(event, api.Result):
-                result, limits = event.image, event.tone_limits
+                result, limits, sigma = event.image, event.tone_limits, event.noise_sigma
             else:
                 progress(event.done, event.total)
         source = input_record(
             job.input, image.shape, image.dtype, file_checksum(job.input), scene=metadata.scene
         )
-        record = rendering_record(mode, kwargs, source=source, tone_limits=limits)
+        record = rendering_record(
+            mode, kwargs, source=source, tone_limits=limits, noise_sigma=sigma
+        )
         job.output.parent.mkdir(parents=True, exist_ok=True)
         write_array(
             job.output,

@@ -32,6 +32,7 @@ from .codes import (
     LEFT_BY_VARIANCE,
     MIRROR,
     NEAREST,
+    NOISE_GATED,
     OUT_OF_TRIES,
     PUSH_IN_RANGE,
     PUSHED,
@@ -306,14 +307,34 @@ def _above_root_ratio(squared, mean, threshold):
 
 
 @njit(inline="always")
+def _window_variance(above_left, above, above_right, left, g, right, below_left, below,
+                     below_right, mean, include_centre):  # fmt: skip
+    """V of Eq. 1 over an interior 3 x 3 window, in the order of ``_interior_squares``."""
+    squares = (above_left - mean) * (above_left - mean)
+    squares += (above - mean) * (above - mean)
+    squares += (above_right - mean) * (above_right - mean)
+    squares += (left - mean) * (left - mean)
+    squares += (right - mean) * (right - mean)
+    squares += (below_left - mean) * (below_left - mean)
+    squares += (below - mean) * (below - mean)
+    squares += (below_right - mean) * (below_right - mean)
+    if include_centre:
+        squares += (g - mean) * (g - mean)
+        return squares / 9
+    return squares * 0.125  # the same float64 as a division by 8, a power of two
+
+
+@njit(inline="always")
 def _kept_run(plane, y, x, x_stop, mean_threshold, variance_threshold, variance_first,
-              variance_ratio, include_centre):  # fmt: skip
+              variance_ratio, include_centre, variance_floor):  # fmt: skip
     """The first of the interior pixels ``x, x + 1, ... < x_stop`` of row y that
-    Eq. 2 does not keep as they are (with Eq. 4 first: that Eq. 4 or Eq. 2 does not keep).
+    Eq. 2 does not keep as they are (with Eq. 4 first: that Eq. 4 or Eq. 2 does not keep)
+    and the noise gate does not leave alone, and how many of those before it the gate left.
 
     The same arithmetic as the full path of ``labyrinth_pass``, with N = 8 or 9
     known; the pixels before the one returned are kept (none changes).
     """
+    gated = 0
     # the 3 x 3 window slides right: two of its columns are read once, before
     above_left, above = np.float64(plane[y - 1, x - 1]), np.float64(plane[y - 1, x])
     left, g = np.float64(plane[y, x - 1]), np.float64(plane[y, x])
@@ -337,30 +358,38 @@ def _kept_run(plane, y, x, x_stop, mean_threshold, variance_threshold, variance_
             mean = neighbour_sum * 0.125
         deviation = abs(g - mean)
         if variance_first:
-            squares = (above_left - mean) * (above_left - mean)
-            squares += (above - mean) * (above - mean)
-            squares += (above_right - mean) * (above_right - mean)
-            squares += (left - mean) * (left - mean)
-            squares += (right - mean) * (right - mean)
-            squares += (below_left - mean) * (below_left - mean)
-            squares += (below - mean) * (below - mean)
-            squares += (below_right - mean) * (below_right - mean)
-            if include_centre:
-                squares += (g - mean) * (g - mean)
-                variance = squares / 9
-                squared_spread = variance / 9 if variance_ratio == SQRT_V_OVER_N else variance
+            variance = _window_variance(
+                above_left, above, above_right, left, g, right, below_left, below,
+                below_right, mean, include_centre,
+            )  # fmt: skip
+            if variance <= variance_floor:  # the noise gate
+                gated += 1
             else:
-                variance = squares * 0.125
-                squared_spread = variance * 0.125 if variance_ratio == SQRT_V_OVER_N else variance
-            if _above_root_ratio(squared_spread, mean, variance_threshold):
-                return x
-        if not _at_most_ratio(deviation, mean, mean_threshold):
-            return x
+                if include_centre:
+                    squared_spread = variance / 9 if variance_ratio == SQRT_V_OVER_N else variance
+                else:
+                    squared_spread = (
+                        variance * 0.125 if variance_ratio == SQRT_V_OVER_N else variance
+                    )
+                if _above_root_ratio(squared_spread, mean, variance_threshold):
+                    return x, gated
+                if not _at_most_ratio(deviation, mean, mean_threshold):
+                    return x, gated
+        elif not _at_most_ratio(deviation, mean, mean_threshold):
+            if variance_floor < 0.0:  # no gate
+                return x, gated
+            variance = _window_variance(
+                above_left, above, above_right, left, g, right, below_left, below,
+                below_right, mean, include_centre,
+            )  # fmt: skip
+            if variance > variance_floor:
+                return x, gated
+            gated += 1
         above_left, above = above, above_right
         left, g = g, right
         below_left, below = below, below_right
         x += 1
-    return x
+    return x, gated
 
 
 @njit
@@ -397,15 +426,17 @@ def _labyrinth_pass_variant(variance_decides_first, centre_counts):
             variant's (:func:`pass_kernel`).
         plane_pass : _kernel_arguments.PlanePass
             The random stream (``seed``, ``plane_index``, ``pass_index``: see
-            ``stream_key``) and ``has_nonfinite`` (False promises an all-finite
-            plane: interior pixels skip the checks).
+            ``stream_key``), ``has_nonfinite`` (False promises an all-finite
+            plane: interior pixels skip the checks) and ``variance_floor``: a
+            pixel not kept by Eq. 2 first whose V of Eq. 1 is at most it is left
+            alone (the noise gate; negative: off).
         region : _kernel_arguments.PassRegion
             The pixels this call visits: a checkerboard colour, a band of rows, a
             range of diagonals ``x + y`` (a parallelogram tile of the exact-order
             schedule of ``_engine``), and the rows of the plane that ``plane``
             holds (``WHOLE_PLANE``: all of them). Rows, random streams and
             borders are those of the whole plane.
-        counts : (6,) int64 array
+        counts : (7,) int64 array
             Incremented at the diagnostic codes (``codes.KEPT_BY_MEAN``, ...).
         changes : (1 + capacity,) int64 array
             Where the pass notes the pixels it writes: ``changes[0]`` is
@@ -429,6 +460,7 @@ def _labyrinth_pass_variant(variance_decides_first, centre_counts):
         max_tries, border, scan = parameters.max_tries, parameters.border, parameters.scan
         variance_ratio, variance_action = parameters.variance_ratio, parameters.variance_action
         on_exhausted, has_nonfinite = parameters.on_exhausted, plane_pass.has_nonfinite
+        variance_floor = plane_pass.variance_floor
         colour, row_start, row_stop = region.colour, region.row_start, region.row_stop
         diagonal_start, diagonal_stop = region.diagonal_start, region.diagonal_stop
         row_offset, plane_height = region.row_offset, region.plane_height
@@ -442,7 +474,7 @@ def _labyrinth_pass_variant(variance_decides_first, centre_counts):
         # they can be updated in any order, by several threads, with one result
         x_first = 0 if colour < 0 else colour & 1
         x_step = 1 if colour < 0 else 2
-        kept = left = pushed_count = redrawn = exhausted = skipped = 0
+        kept = left = pushed_count = redrawn = exhausted = skipped = gated = 0
         for y in range(row_start, row_stop):
             if colour >= 0 and (y & 1) != (colour >> 1):
                 continue
@@ -474,27 +506,28 @@ def _labyrinth_pass_variant(variance_decides_first, centre_counts):
                     # no test of the options inside it
                     if variance_decides_first:
                         if centre_counts:
-                            x_next = _kept_run(
+                            x_next, gated_run = _kept_run(
                                 plane, row, x, fast_stop, mean_threshold, variance_threshold,
-                                True, variance_ratio, True,
+                                True, variance_ratio, True, variance_floor,
                             )  # fmt: skip
                         else:
-                            x_next = _kept_run(
+                            x_next, gated_run = _kept_run(
                                 plane, row, x, fast_stop, mean_threshold, variance_threshold,
-                                True, variance_ratio, False,
+                                True, variance_ratio, False, variance_floor,
                             )  # fmt: skip
                     elif centre_counts:
-                        x_next = _kept_run(
+                        x_next, gated_run = _kept_run(
                             plane, row, x, fast_stop, mean_threshold, variance_threshold,
-                            False, variance_ratio, True,
+                            False, variance_ratio, True, variance_floor,
                         )  # fmt: skip
                     else:
-                        x_next = _kept_run(
+                        x_next, gated_run = _kept_run(
                             plane, row, x, fast_stop, mean_threshold, variance_threshold,
-                            False, variance_ratio, False,
+                            False, variance_ratio, False, variance_floor,
                         )  # fmt: skip
                     if x_next > x:
-                        kept += x_next - x
+                        kept += x_next - x - gated_run
+                        gated += gated_run
                         step += x_next - x - 1
                         not_kept = x_next
                         continue
@@ -546,6 +579,9 @@ def _labyrinth_pass_variant(variance_decides_first, centre_counts):
                     spread = math.sqrt(
                         variance / n if variance_ratio == SQRT_V_OVER_N else variance
                     )
+                if variance <= variance_floor:  # the noise gate: no more than the noise
+                    gated += 1
+                    continue
                 if _ratio(spread, mean) > variance_threshold:
                     if variance_action == LEAVE:
                         left += 1
@@ -587,6 +623,7 @@ def _labyrinth_pass_variant(variance_decides_first, centre_counts):
         counts[REDRAWN] += redrawn
         counts[OUT_OF_TRIES] += exhausted
         counts[SKIPPED] += skipped
+        counts[NOISE_GATED] += gated
 
     return labyrinth_pass
 

@@ -69,12 +69,17 @@ class PlanePass(NamedTuple):
     plane_index, pass_index : int
     has_nonfinite : bool
         False promises an all-finite plane: interior pixels skip the checks.
+    variance_floor : float
+        The noise gate's floor (``noise.variance_floor``), in tones²: a pixel
+        Eq. 2 does not keep first is left alone where the variance of Eq. 1
+        is at most this; negative: the gate is off.
     """
 
     seed: np.uint64
     plane_index: int
     pass_index: int
     has_nonfinite: bool
+    variance_floor: float = -1.0
 
 
 class PassRegion(NamedTuple):

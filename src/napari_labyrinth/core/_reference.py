@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from . import noise as _noise
 from .codes import (
     BORDER_CODES,
     CHECKERBOARD,
@@ -33,8 +34,12 @@ from .codes import (
     VARIANCE_RATIO_CODES,
     WRAP,
 )
+from .tone_scale import ToneScale
 
 _MASK64 = 0xFFFFFFFFFFFFFFFF
+
+#: The tone scale of a plane of tones: each tone is its own value.
+_TONES = ToneScale(0.0, 255.0)
 
 
 def splitmix64(x):
@@ -150,12 +155,15 @@ def reference_pass(
     on_exhausted="keep",
     include_centre=False,
     scan="raster",
+    variance_floor=-1.0,
 ):
     """One pass over a copy of ``plane``; returns ``(new_plane, counts)``.
 
     ``range_limits`` are L_inf^1 < L_sup^1 = L_inf^2 < ... < L_sup^n and
     ``tones`` the pairs (T_inf^i, T_sup^i); the options are given by name
-    (``codes.py`` maps them to the kernel's codes). ``counts`` is a dict with
+    (``codes.py`` maps them to the kernel's codes). A pixel that Eq. 2 does not
+    keep first and whose V of Eq. 1 is at most ``variance_floor`` is left alone
+    (the noise gate; a negative floor: off). ``counts`` is a dict with
     the diagnostic names of ``codes.DIAGNOSTIC_FIELDS``.
     """
     border = BORDER_CODES[border]
@@ -196,6 +204,9 @@ def reference_pass(
         for value in values:
             squares += (value - mean) * (value - mean)
         variance = squares / n  # Eq. 1
+        if variance <= variance_floor:  # the noise gate: no more than the noise
+            counts["noise_gated"] += 1
+            continue
         if variance_ratio == SQRT_V_OVER_N:
             spread = math.sqrt(variance / n)
         else:
@@ -243,13 +254,19 @@ def reference_pass(
     return g_plane, counts
 
 
-def reference_render(plane, parameters, *, seed=0, plane_index=0):
+def reference_render(plane, parameters, *, seed=0, plane_index=0, noise_sigma=None):
     """All ``parameters.passes`` passes over a float32 plane of tones.
 
-    ``parameters`` is a :class:`~napari_labyrinth.core.parameters.LabyrinthParameters`.
+    ``parameters`` is a :class:`~napari_labyrinth.core.parameters.LabyrinthParameters`;
+    ``noise_sigma``, the plane's noise in tones, is measured on ``plane``
+    (``noise.tone_noise_sigma``) when not given and the noise gate is on.
     Returns the final plane and the list of per-pass counts.
     """
     work, all_counts = np.array(plane, dtype=np.float32), []
+    if noise_sigma is None:
+        gated = parameters.noise_gate > 0
+        noise_sigma = _noise.tone_noise_sigma(work, _TONES) if gated else 0.0
+    floor = _noise.variance_floor(parameters.noise_gate, noise_sigma)
     for pass_index in range(parameters.passes):
         work, counts = reference_pass(
             work,
@@ -262,6 +279,7 @@ def reference_render(plane, parameters, *, seed=0, plane_index=0):
             plane_index=plane_index,
             pass_index=pass_index,
             include_centre=parameters.include_centre,
+            variance_floor=floor,
             **{name: getattr(parameters, name) for name in OPTION_CODES},
         )
         all_counts.append(counts)

@@ -50,6 +50,7 @@ PUSHED = 2  # Eq. 4 held: a draw further from M replaced g (the push readings)
 REDRAWN = 3  # a draw of Eq. 3 satisfied Eq. 2 and replaced g
 OUT_OF_TRIES = 4  # max_tries draws, none satisfied Eq. 2
 SKIPPED = 5  # g not finite, or no finite neighbour
+NOISE_GATED = 6  # not kept by Eq. 2 first, but its neighbourhood varies no more than the noise
 DIAGNOSTIC_CODES = MappingProxyType(
     {
         "kept_by_mean": KEPT_BY_MEAN,
@@ -58,6 +59,7 @@ DIAGNOSTIC_CODES = MappingProxyType(
         "redrawn": REDRAWN,
         "out_of_tries": OUT_OF_TRIES,
         "skipped": SKIPPED,
+        "noise_gated": NOISE_GATED,
     }
 )
 

@@ -458,6 +458,20 @@ class LabyrinthParameters:
             "in turn, which lets one plane use every core"
         ),
     )
+    noise_gate: float = _entry(
+        kind="float",
+        paper=0.0,
+        low=0.0,
+        high=100.0,
+        reading=True,
+        label="noise gate k",
+        equation="not in the paper",
+        doc=(
+            "A pixel Eq. 2 does not keep first is left alone where V of Eq. 1 is at most "
+            "(k sigma)^2, sigma the plane's own noise (Immerkaer's estimate, or its dark "
+            "field's if larger): black backgrounds stay clean; 0 turns the gate off"
+        ),
+    )
 
     def as_dict(self) -> dict[str, Any]:
         """Plain-Python dict (JSON-serialisable) of every parameter."""

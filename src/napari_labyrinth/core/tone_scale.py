@@ -62,6 +62,11 @@ class ToneScale:
         return 255.0 / (self.high - self.low)
 
     @property
+    def gain(self) -> float:
+        """Tones per unit of value: ``255 / (high - low)``."""
+        return self._gain
+
+    @property
     def _fits_float32(self) -> bool:
         """Whether float32 intermediates hold the map (limits and gain well inside its
         range); otherwise a finite value could become an infinite or NaN tone."""

@@ -1,0 +1,186 @@
+"""The noise of an image plane, measured from the plane itself, and the noise gate's floor.
+
+:func:`noise_sigma` is Immerkær's fast estimate of the standard deviation of
+additive white noise: the plane convolved with the difference of two
+Laplacians,
+
+::
+
+     1 -2  1
+    -2  4 -2
+     1 -2  1
+
+cancels every linear ramp (and most of a smooth image), and what is left of
+white noise of deviation sigma has a deviation of 6 sigma (the mask's squares
+sum to 36); for Gaussian noise the mean absolute residual is
+``sqrt(2 / pi) * 6 * sigma``. Edges leave residuals too, so the estimate is
+an upper bound that is close on images whose edges are few (a dark field,
+a smooth texture) and larger on busy ones.
+
+The sums run over fixed bands of rows in a fixed order, so that every path
+that renders a plane (whole, in bands, in tiles, in blocks of a dask image)
+gets the same number from the same values. A JPEG's noise is mostly at the
+scale of its blocks, where Immerkær's mask reads little of it: the noise gate
+takes the larger of this estimate and the dark field's (:func:`dark_field_sigma`).
+
+References
+----------
+J. Immerkær, "Fast noise variance estimation", Computer Vision and Image
+Understanding 64 (2), 300-302 (1996).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .tone_scale import ToneScale
+
+#: ``sqrt(pi / 2) / 6``: the mean absolute residual of the mask times this is sigma.
+_SIGMA_PER_RESIDUAL = math.sqrt(math.pi / 2.0) / 6.0
+
+#: Rows of the plane convolved at once: bounds the residuals' memory (int64 or float64).
+_BAND_ROWS = 256
+
+
+def noise_sigma(plane: np.ndarray) -> float:
+    """Immerkær's estimate of the deviation of the noise of a 2-D plane, in its values' units.
+
+    Parameters
+    ----------
+    plane : (H, W) ndarray
+        Integer or float values; non-finite values and the residuals they
+        touch do not count.
+
+    Returns
+    -------
+    float
+        sigma, >= 0; 0 for a plane under 3 x 3 pixels or without a finite
+        3 x 3 neighbourhood.
+    """
+    return _residual_sigma(_checked(plane), None)
+
+
+def tone_noise_sigma(values: np.ndarray, scale: ToneScale) -> float:
+    """The noise of the plane ``values`` in the tones of ``scale``, which the noise gate
+    compares the local variance with: the larger of Immerkær's estimate
+    (:func:`noise_sigma`) and :func:`dark_field_sigma`, both read on the tones
+    the kernel sees (``scale.to_tones``, made band of rows by band of rows).
+
+    This is the one place a rendering measures a plane's noise: every path
+    that renders the plane (or a plane of the same tones) gets the same number.
+    """
+    values = _checked(values)
+    return max(_residual_sigma(values, scale), dark_field_sigma(values, scale))
+
+
+def _checked(plane: np.ndarray) -> np.ndarray:
+    plane = np.asarray(plane)
+    if plane.ndim != 2:
+        raise ValueError(f"a noise estimate takes a 2-D plane, got {plane.ndim} dimensions")
+    return plane
+
+
+def _rows(values: np.ndarray, rows, scale: ToneScale | None) -> np.ndarray:
+    """``values[rows]`` as float64: the values, or their tones on ``scale``."""
+    band = values[rows]
+    if scale is None:
+        return band.astype(np.float64)
+    return scale.to_tones(band).astype(np.float64)
+
+
+def _residual_sigma(values: np.ndarray, scale: ToneScale | None) -> float:
+    """Immerkær's sigma of ``values`` (or of their tones on ``scale``)."""
+    height, width = values.shape
+    if height < 3 or width < 3:
+        return 0.0
+    total, count = 0.0, 0
+    for start in range(1, height - 1, _BAND_ROWS):
+        stop = min(height - 1, start + _BAND_ROWS)
+        residual = _mask_residual(_rows(values, slice(start - 1, stop + 1), scale))
+        finite = np.isfinite(residual)
+        # each row summed, then the rows in order: the same float64 for the same values
+        total += float(np.abs(np.where(finite, residual, 0.0)).sum(axis=1).sum())
+        count += int(finite.sum())
+    if count == 0:
+        return 0.0
+    return total / count * _SIGMA_PER_RESIDUAL
+
+
+def _mask_residual(rows: np.ndarray) -> np.ndarray:
+    """The mask of the module's docstring over the interior of ``rows``."""
+    above, middle, below = rows[:-2], rows[1:-1], rows[2:]
+    corners = above[:, :-2] + above[:, 2:] + below[:, :-2] + below[:, 2:]
+    sides = above[:, 1:-1] + below[:, 1:-1] + middle[:, :-2] + middle[:, 2:]
+    return corners - 2 * sides + 4 * middle[:, 1:-1]
+
+
+def dark_field_sigma(values: np.ndarray, scale: ToneScale) -> float:
+    """The noise of the plane's dark field in tones, from the variance of Eq. 1 there.
+
+    The pixels whose 8 neighbours' mean lies below ``DARK_TONE`` tones are the
+    dark field; where they are at least ``MIN_DARK_SHARE`` of the plane, the
+    median of their neighbours' variance V, divided by its median for white
+    noise of deviation 1 (``_MEDIAN_V``), is the noise's variance. A JPEG
+    leaves little of a camera's noise at the highest frequencies, which
+    Immerkær's mask reads, and more at the scale of its 8 x 8 blocks, which
+    V reads: on black fields saved as JPEGs of quality 85, V was 4 to 6 times
+    Immerkær's sigma squared (``docs/study/noise-gate.md``). 0 without a dark field.
+
+    Rows are sampled with a stride that keeps at most ``_SAMPLES`` pixels (the
+    same rows for the same shape), so that a huge plane costs no more.
+    """
+    height, width = values.shape
+    if height < 3 or width < 3:
+        return 0.0
+    stride = max(1, math.ceil((height - 2) * (width - 2) / _SAMPLES))
+    variances = []
+    dark_pixels = total = 0
+    for start in range(1, height - 1, _BAND_ROWS * stride):
+        centres = np.arange(start, min(height - 1, start + _BAND_ROWS * stride), stride)
+        window = [_rows(values, centres + dy, scale) for dy in (-1, 0, 1)]
+        centre = window[1][:, 1:-1]
+        # the 3 x 3 sums of the values and of their squares, less the centre's: Eq. 1's
+        # sums over the 8 neighbours (in another order than the kernel's: an estimate)
+        sums = _box(window[0] + window[1] + window[2]) - centre
+        squares = _box(window[0] ** 2 + window[1] ** 2 + window[2] ** 2) - centre**2
+        mean = sums / 8.0
+        variance = np.maximum(squares / 8.0 - mean**2, 0.0)
+        dark = (mean < DARK_TONE) & np.isfinite(variance)
+        variances.append(variance[dark])
+        dark_pixels += int(dark.sum())
+        total += mean.size
+    if dark_pixels == 0 or dark_pixels < MIN_DARK_SHARE * total:
+        return 0.0
+    return math.sqrt(float(np.median(np.concatenate(variances))) / _MEDIAN_V)
+
+
+def _box(columns: np.ndarray) -> np.ndarray:
+    """Sums of three neighbouring columns: ``columns[:, x - 1] + columns[:, x] + columns[:, x + 1]``."""
+    return columns[:, :-2] + columns[:, 1:-1] + columns[:, 2:]
+
+
+#: Tones under which a neighbourhood's mean is dark (the study's dark regions: 20).
+DARK_TONE = 20.0
+
+#: The share of a plane's pixels that must be dark for its dark field to be measured.
+MIN_DARK_SHARE = 0.05
+
+#: The median of V of Eq. 1 (8 neighbours) for white Gaussian noise of deviation 1:
+#: 8 V is a chi-square of 7 degrees of freedom, whose median is 6.3458.
+_MEDIAN_V = 6.345811 / 8.0
+
+#: Pixels :func:`dark_field_sigma` reads at most (rows sampled with a stride beyond).
+_SAMPLES = 1 << 20
+
+
+def variance_floor(noise_gate: float, sigma: float) -> float:
+    """The local variance at or below which the noise gate leaves a pixel alone, in tones².
+
+    ``(noise_gate * sigma) ** 2`` for a gate that is on; -1 (no variance is at
+    or below it) for ``noise_gate == 0``, the gate off.
+    """
+    if noise_gate <= 0.0:
+        return -1.0
+    return float(noise_gate * sigma) ** 2
