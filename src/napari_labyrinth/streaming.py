@@ -27,7 +27,8 @@ from ._inputs import validate_workers
 from .core.codes import DIAGNOSTIC_FIELDS
 from .core.parameters import DEFAULT_SEED, SEED, LabyrinthParameters, is_auto
 from .core.presets import DEFAULT_PRESET, resolve_parameters
-from .core.tone_scale import resolve_tone_scale
+from .core.noise import tone_noise_sigma, variance_floor
+from .core.tone_scale import ToneScale, resolve_tone_scale
 from .io import ImageFileError, ImageMetadata, release_files
 from .io.bands import PlaneBands, band_rows, open_plane_bands, plane_bands_written
 from .lazy import default_tone_limits
@@ -47,12 +48,16 @@ class StreamedRendering:
         The counts of each pass, as :func:`napari_labyrinth.labyrinth` returns them.
     rows : int
         Rows of the bands the plane was read, rendered and written in.
+    noise_sigma : float
+        The plane's noise in tones, which the noise gate compared the local
+        variance with (``core.noise.tone_noise_sigma``); 0 with the gate off.
     """
 
     path: Path
     tone_limits: tuple[float, float]
     diagnostics: np.ndarray
     rows: int
+    noise_sigma: float = 0.0
 
 
 def streams(path: str | os.PathLike) -> PlaneBands | None:
@@ -104,6 +109,12 @@ def plane_tone_limits(plane: PlaneBands, rows: int | None = None) -> tuple[float
     return default_tone_limits(image)
 
 
+def plane_noise_sigma(plane: PlaneBands, scale: ToneScale, rows: int | None = None) -> float:
+    """The noise of ``plane`` in the tones of ``scale`` (``core.noise.tone_noise_sigma``),
+    read in bands of ``rows`` rows: the number the noise gate takes for the plane held whole."""
+    return tone_noise_sigma(plane, scale, band_rows=rows or plane_rows(plane, 1))
+
+
 def render_plane_file(
     input: str | os.PathLike,
     output: str | os.PathLike,
@@ -111,6 +122,7 @@ def render_plane_file(
     preset: str = DEFAULT_PRESET,
     seed: int = DEFAULT_SEED,
     tone_limits: tuple[float, float] | None = None,
+    noise_sigma: float | None = None,
     overwrite: bool = False,
     metadata: ImageMetadata | None = None,
     progress: Callable[[int, int], Any] | None = None,
@@ -131,6 +143,10 @@ def render_plane_file(
     preset, seed, tone_limits, **parameters
         As for :func:`napari_labyrinth.labyrinth`; without ``tone_limits`` the
         default ones are found in a pass over the file first.
+    noise_sigma : float, optional
+        The plane's noise in tones, for the noise gate (``noise_gate`` > 0);
+        without it, measured in a pass over the file first
+        (:func:`plane_noise_sigma`).
         ``variance_threshold="auto"``, ``scan="checkerboard"`` and
         ``border="wrap"`` are refused: each needs the whole plane at once.
     overwrite : bool, optional
@@ -171,6 +187,12 @@ def render_plane_file(
         if tone_limits is None:
             tone_limits = plane_tone_limits(plane, rows)
         scale = resolve_tone_scale(np.empty(0, plane.dtype), tone_limits)
+        if rendering.noise_gate <= 0:
+            noise_sigma = 0.0
+        elif noise_sigma is None:
+            noise_sigma = plane_noise_sigma(plane, scale, rows)
+        elif not (isinstance(noise_sigma, (int, float)) and 0 <= noise_sigma < np.inf):
+            raise ValueError(f"noise_sigma must be a finite number >= 0, got {noise_sigma!r}")
         height = plane.shape[0]
         counts = np.zeros((rendering.passes, len(DIAGNOSTIC_FIELDS)), np.int64)
         bands = (plane.read(start, min(height, start + rows)) for start in range(0, height, rows))
@@ -184,6 +206,7 @@ def render_plane_file(
             rows=rows,
             counts=counts,
             workers=workers,
+            variance_floor=variance_floor(rendering.noise_gate, float(noise_sigma)),
         )
         with plane_bands_written(
             output, plane.shape, plane.dtype, rows, overwrite=overwrite, metadata=metadata
@@ -195,7 +218,8 @@ def render_plane_file(
     finally:
         release_files()
     limits = (float(scale.low), float(scale.high))
-    return StreamedRendering(output, limits, counts.view(DIAGNOSTICS_DTYPE)[:, 0], rows)
+    diagnostics = counts.view(DIAGNOSTICS_DTYPE)[:, 0]
+    return StreamedRendering(output, limits, diagnostics, rows, float(noise_sigma))
 
 
 def plane_rows(plane: PlaneBands, passes: int) -> int:

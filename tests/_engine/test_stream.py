@@ -8,6 +8,8 @@ import pytest
 from napari_labyrinth import labyrinth
 from napari_labyrinth._engine import stream as stream_module
 from napari_labyrinth._engine.stream import stream_plane, streaming_refusal
+from napari_labyrinth.core.codes import DIAGNOSTIC_FIELDS
+from napari_labyrinth.core.noise import tone_noise_sigma, variance_floor
 from napari_labyrinth.core.presets import resolve_parameters
 from napari_labyrinth.core.tone_scale import resolve_tone_scale
 
@@ -28,9 +30,10 @@ def smooth(shape=SHAPE, dtype=np.uint16, seed=0) -> np.ndarray:
 def streamed(image, parameters, seed, rows, tone_limits=None, workers=1):
     """The plane rendered by ``stream_plane`` from bands of ``rows`` rows; the bands' rows."""
     scale = resolve_tone_scale(image, tone_limits)
+    floor = variance_floor(parameters.noise_gate, tone_noise_sigma(image, scale))
     bands = (image[start : start + rows] for start in range(0, image.shape[0], rows))
     result = np.full_like(image, 0)
-    counts = np.zeros((parameters.passes, 6), np.int64)
+    counts = np.zeros((parameters.passes, len(DIAGNOSTIC_FIELDS)), np.int64)
     covered = 0
     for start, values in stream_plane(
         bands,
@@ -42,6 +45,7 @@ def streamed(image, parameters, seed, rows, tone_limits=None, workers=1):
         rows=rows,
         counts=counts,
         workers=workers,
+        variance_floor=floor,
     ):
         assert start == covered  # in order, no gap
         result[start : start + len(values)] = values
@@ -62,6 +66,23 @@ def test_streamed_plane_equals_the_in_memory_rendering(dtype, preset, rows):
     np.testing.assert_array_equal(result, expected)
     assert not np.array_equal(result, image, equal_nan=True)
     np.testing.assert_array_equal(counts, diagnostics.view(np.int64).reshape(counts.shape))
+
+
+@pytest.mark.parametrize("rows", [3, 32])
+def test_a_streamed_plane_is_gated_as_in_memory(rows):
+    # a noisy black field beside a bright block: the gate leaves most of the field alone
+    rng = np.random.default_rng(2)
+    image = np.clip(rng.normal(6, 3, (120, 90)), 0, 255).astype(np.uint8)
+    image[30:90, 50:80] = 200
+    gated = resolve_parameters("labyrinth")
+    assert gated.noise_gate > 0  # on in the default preset
+    expected, diagnostics = labyrinth(image, seed=4, return_diagnostics=True)
+    result, counts = streamed(image, gated, 4, rows)
+    np.testing.assert_array_equal(result, expected)
+    np.testing.assert_array_equal(counts, diagnostics.view(np.int64).reshape(counts.shape))
+    ungated, _ = streamed(image, resolve_parameters("labyrinth", noise_gate=0), 4, rows)
+    field = np.s_[:25, :45]
+    assert (result[field] != image[field]).mean() < 0.05 < (ungated[field] != image[field]).mean()
 
 
 @pytest.mark.parametrize("preset", ["paper", "labyrinth"])

@@ -21,6 +21,8 @@ pytest.importorskip("dask.array")
 
 from napari_labyrinth import labyrinth, streaming
 from napari_labyrinth.cli import main
+from napari_labyrinth.core.noise import tone_noise_sigma
+from napari_labyrinth.core.tone_scale import resolve_tone_scale
 from napari_labyrinth.io import bands as plane_bands
 from napari_labyrinth.io import read_image, read_metadata
 
@@ -98,6 +100,11 @@ def test_a_plane_too_large_for_memory_is_streamed_bit_for_bit(
     assert 0 < max(band_reads) <= 3 * ROWS  # never the whole plane at once
     record = read_metadata(target).provenance
     assert record["preset"] == preset and record["input"]["shape"] == list(SHAPE)
+    if preset == "paper":
+        assert "noise_sigma" not in record
+    else:  # the gate's measure of the whole plane, recorded
+        sigma = tone_noise_sigma(image, resolve_tone_scale(image, None))
+        assert record["noise_sigma"] == [sigma] and sigma > 0
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
 
 

@@ -14,7 +14,7 @@ from napari_labyrinth.core._reference import reference_render
 from napari_labyrinth.core.noise import noise_sigma, tone_noise_sigma, variance_floor
 from napari_labyrinth.core.parameters import PARAMETERS
 from napari_labyrinth.core.presets import PRESETS
-from napari_labyrinth.core.tone_scale import ToneScale
+from napari_labyrinth.core.tone_scale import ToneScale, resolve_tone_scale
 
 
 def _digest(array) -> str:
@@ -141,3 +141,13 @@ def test_the_dark_field_s_noise_is_found_in_its_local_variance_even_through_a_jp
     assert noise_sigma(compressed) < 0.5 * sigma
     bright = compressed.astype(np.uint16) + 100  # no dark field: Immerkær's alone
     assert tone_noise_sigma(bright, paper) == noise_sigma(bright)
+
+
+@pytest.mark.parametrize("band_rows", [1, 3, 17, 256, 10_000])
+def test_the_noise_of_a_plane_does_not_depend_on_the_bands_it_is_read_in(band_rows):
+    # a plane read band by band from a file gets the number of the plane held whole
+    rng = np.random.default_rng(8)
+    plane = np.clip(rng.normal(30, 9, (301, 77)), 0, 255).astype(np.uint8)
+    plane[100:200, 20:60] = 220
+    scale = resolve_tone_scale(plane, None)
+    assert tone_noise_sigma(plane, scale, band_rows=band_rows) == tone_noise_sigma(plane, scale)

@@ -88,6 +88,7 @@ def stream_plane(
     plane_index: int = 0,
     counts: np.ndarray | None = None,
     workers: int = 1,
+    variance_floor: float = -1.0,
 ) -> Generator[tuple[int, np.ndarray], None, None]:
     """Render a plane read band by band; yield ``(first_row, values)`` bands of the result.
 
@@ -115,6 +116,9 @@ def stream_plane(
         the exact-order tiles (``tiles``; the raster scan, any border but
         ``"wrap"``), on no more threads than idle cores. The result does not
         depend on it.
+    variance_floor : float, optional
+        The noise gate's floor (``core.noise.variance_floor`` of the whole
+        plane's sigma; negative: off), as the in-memory passes take it.
 
     Yields
     ------
@@ -167,7 +171,9 @@ def stream_plane(
                         window.rows(max(start - 1, window.first), min(stop + 1, window.stop))
                     ).all()
                 )
-                plane_pass = PlanePass(np.uint64(seed), int(plane_index), k, bool(nonfinite))
+                plane_pass = PlanePass(
+                    np.uint64(seed), int(plane_index), k, bool(nonfinite), float(variance_floor)
+                )
                 region = PassRegion(-1, start, stop, 0, -1, window.offset, height)
                 threads = min(workers, idle_cores()) if tiled else 1  # as run_pass takes them
                 tile = default_tile((rows, width), threads, parameters)

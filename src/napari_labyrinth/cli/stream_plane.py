@@ -13,10 +13,19 @@ import functools
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..core.presets import DEFAULT_PRESET
+from ..core.tone_scale import resolve_tone_scale
 from ..io import ImageFileError, image_format
 from ..provenance import file_checksum, input_record, rendering_record
-from ..streaming import plane_rows, plane_tone_limits, render_plane_file, streamed_parameters
+from ..streaming import (
+    plane_noise_sigma,
+    plane_rows,
+    plane_tone_limits,
+    render_plane_file,
+    streamed_parameters,
+)
 
 #: Outputs a plane larger than memory is written to, a band of rows at a time.
 STREAMED_OUTPUTS = ("ZARR", "TIFF")
@@ -49,7 +58,8 @@ def render_streamed(
         )
     parameters = {k: v for k, v in options.items() if k not in _NOT_PARAMETERS}
     preset = options.get("preset", DEFAULT_PRESET)
-    rows = plane_rows(plane, streamed_parameters(preset, **parameters).passes)
+    rendering = streamed_parameters(preset, **parameters)
+    rows = plane_rows(plane, rendering.passes)
     note(
         f"{input}: a plane of {plane.shape[0]} x {plane.shape[1]} {plane.dtype.name} pixels, "
         "too large to render in memory here: rendered band by band"
@@ -67,13 +77,25 @@ def render_streamed(
         input, plane.shape, plane.dtype, file_checksum(input), scene=metadata.scene
     )
     limits = kwargs.get("tone_limits", (0.0, 255.0))
-    record = rendering_record("single", kwargs, source=source, tone_limits=limits)
+    sigma = None
+    if rendering.noise_gate > 0:
+        note(f"{input}: measuring the plane's noise for the noise gate in a pass over the data")
+        scale = resolve_tone_scale(np.empty(0, plane.dtype), limits)
+        sigma = plane_noise_sigma(plane, scale, rows)
+    record = rendering_record(
+        "single",
+        kwargs,
+        source=source,
+        tone_limits=limits,
+        noise_sigma=None if sigma is None else [sigma],
+    )
     output.parent.mkdir(parents=True, exist_ok=True)
     render_plane_file(
         input,
         output,
         overwrite=overwrite,
         metadata=metadata.for_output(None, record),
+        noise_sigma=sigma,
         progress=functools.partial(progress, unit="row"),
         **kwargs,
     )

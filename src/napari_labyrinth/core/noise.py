@@ -40,7 +40,7 @@ from .tone_scale import ToneScale
 #: ``sqrt(pi / 2) / 6``: the mean absolute residual of the mask times this is sigma.
 _SIGMA_PER_RESIDUAL = math.sqrt(math.pi / 2.0) / 6.0
 
-#: Rows of the plane convolved at once: bounds the residuals' memory (int64 or float64).
+#: Rows of the plane convolved at once by default: bounds the residuals' memory (float64).
 _BAND_ROWS = 256
 
 
@@ -62,7 +62,7 @@ def noise_sigma(plane: np.ndarray) -> float:
     return _residual_sigma(_checked(plane), None)
 
 
-def tone_noise_sigma(values: np.ndarray, scale: ToneScale) -> float:
+def tone_noise_sigma(values, scale: ToneScale, band_rows: int = _BAND_ROWS) -> float:
     """The noise of the plane ``values`` in the tones of ``scale``, which the noise gate
     compares the local variance with: the larger of Immerkær's estimate
     (:func:`noise_sigma`) and :func:`dark_field_sigma`, both read on the tones
@@ -70,13 +70,20 @@ def tone_noise_sigma(values: np.ndarray, scale: ToneScale) -> float:
 
     This is the one place a rendering measures a plane's noise: every path
     that renders the plane (or a plane of the same tones) gets the same number.
+    ``band_rows`` bounds the rows read and held at a time (a plane read band
+    by band from a file); the number does not depend on it.
     """
     values = _checked(values)
-    return max(_residual_sigma(values, scale), dark_field_sigma(values, scale))
+    band_rows = max(int(band_rows), 1)
+    return max(_residual_sigma(values, scale, band_rows), dark_field_sigma(values, scale))
 
 
-def _checked(plane: np.ndarray) -> np.ndarray:
-    plane = np.asarray(plane)
+def _checked(plane):
+    """``plane`` as an array, or as it is where it reads its rows itself: an array-like
+    with ``shape``, ``ndim`` and ``plane[rows]`` for a slice or an integer array of rows
+    (a plane read band by band from a file, ``io.bands.PlaneBands``)."""
+    if not all(hasattr(plane, name) for name in ("shape", "ndim", "__getitem__")):
+        plane = np.asarray(plane)
     if plane.ndim != 2:
         raise ValueError(f"a noise estimate takes a 2-D plane, got {plane.ndim} dimensions")
     return plane
@@ -90,22 +97,24 @@ def _rows(values: np.ndarray, rows, scale: ToneScale | None) -> np.ndarray:
     return scale.to_tones(band).astype(np.float64)
 
 
-def _residual_sigma(values: np.ndarray, scale: ToneScale | None) -> float:
-    """Immerkær's sigma of ``values`` (or of their tones on ``scale``)."""
+def _residual_sigma(values, scale: ToneScale | None, band_rows: int = _BAND_ROWS) -> float:
+    """Immerkær's sigma of ``values`` (or of their tones on ``scale``), read ``band_rows``
+    rows at a time (the result does not depend on it)."""
     height, width = values.shape
     if height < 3 or width < 3:
         return 0.0
-    total, count = 0.0, 0
-    for start in range(1, height - 1, _BAND_ROWS):
-        stop = min(height - 1, start + _BAND_ROWS)
+    row_sums, count = [], 0
+    for start in range(1, height - 1, band_rows):
+        stop = min(height - 1, start + band_rows)
         residual = _mask_residual(_rows(values, slice(start - 1, stop + 1), scale))
         finite = np.isfinite(residual)
-        # each row summed, then the rows in order: the same float64 for the same values
-        total += float(np.abs(np.where(finite, residual, 0.0)).sum(axis=1).sum())
+        row_sums.extend(np.abs(np.where(finite, residual, 0.0)).sum(axis=1).tolist())
         count += int(finite.sum())
     if count == 0:
         return 0.0
-    return total / count * _SIGMA_PER_RESIDUAL
+    # each row summed, then the rows' sums exactly (fsum): the same float64 for the same
+    # values, whatever the bands of rows they were read in
+    return math.fsum(row_sums) / count * _SIGMA_PER_RESIDUAL
 
 
 def _mask_residual(rows: np.ndarray) -> np.ndarray:

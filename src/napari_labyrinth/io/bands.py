@@ -55,8 +55,16 @@ class PlaneBands:
         return np.ascontiguousarray(native(self._read_rows(start, stop)))
 
     def __getitem__(self, key) -> np.ndarray:
-        """``plane[rows, columns]`` (slices): what dask reads a block with."""
+        """``plane[rows, columns]``: rows a slice (what dask reads a block with) or an integer
+        array of rows (what the noise gate samples a plane's rows with), columns a slice."""
         rows, columns = key if isinstance(key, tuple) else (key, slice(None))
+        if not isinstance(rows, slice):
+            indices = np.asarray(rows)
+            if indices.dtype.kind not in "iu" or indices.ndim != 1:
+                raise TypeError(f"rows of a plane read band by band: a slice or 1-D integers, not {rows!r}")
+            picked = [self.read(int(row), int(row) + 1) for row in indices]
+            band = np.concatenate(picked) if picked else np.empty((0, self.shape[1]), self.dtype)
+            return band[:, columns]
         start, stop, _ = rows.indices(self.shape[0])
         return self.read(start, stop)[:, columns]
 
