@@ -120,7 +120,7 @@ def test_auto_draws_walls_on_a_smooth_noisy_texture():
     found = find_window(image)
     assert found.found and found.reason.startswith("cover ")
     assert_auto_draws_what_a_person_sees(image, found)
-    assert found.summary().startswith(f"V = {found.best:.4g} ({found.reason}; window ")
+    assert found.summary().startswith(f"V = {found.best:.4g}: {found.reason} (window ")
 
 
 def test_every_v_probed_is_a_v_the_form_shows(camera_window):
@@ -274,6 +274,19 @@ def test_the_cli_prints_the_v_it_chose_and_renders_with_it(tmp_path, capsys):
     assert main(["render", str(source), "-o", str(tmp_path / "set.tif"), "--set",
                  "variance_threshold=auto"]) == 0  # fmt: skip
     np.testing.assert_array_equal(read_image(tmp_path / "set.tif"), expected)
+
+
+def test_the_cli_prints_why_it_chose_v_as_the_widget_does(tmp_path, capsys):
+    smooth = samples.nematic_schlieren((128, 128), seed=0, noise=0.0) * 255.0
+    image = np.rint(smooth).astype(np.uint8)
+    source, target = tmp_path / "texture.png", tmp_path / "out.png"
+    write_image(source, image)
+    assert main(["render", str(source), "-o", str(target), "--variance-threshold", "auto"]) == 0
+    found = find_window(image)
+    assert found.reason.startswith("cover ") and ", aligned " in found.reason
+    assert found.choice == f"V = {found.best:.4g}: {found.reason}"  # the widget's caption
+    line = f"{source}: variance threshold auto: {found.choice} (window "
+    assert line in capsys.readouterr().err
 
 
 def test_the_cli_chooses_v_once_for_a_lazy_input(tmp_path, capsys, monkeypatch):

@@ -145,16 +145,32 @@ class Window:
         """Why ``best``, in one line: ``reason``, or what kept every V from being measured."""
         if not self.found and all(math.isnan(value) for value in self.edge_enhancement):
             return "the probe's crops hold NaN or infinite pixels: no V could be measured"
-        return self.reason or "no V draws the labyrinth on the edges"
+        if not self.found:
+            return self.reason or "no V draws the labyrinth on the edges"
+        return self.reason
+
+    @property
+    def choice(self) -> str:
+        """The V chosen and why, in one line: ``V = 0.04: cover 0.11, aligned 0.99`` (what the
+        widget's plot and the command line show)."""
+        chosen = f"V = {self.best:.4g}"
+        return f"{chosen}: {self.explanation}" if self.explanation else chosen
+
+    @property
+    def range_note(self) -> str:
+        """``window 0.03-0.06``, and ``open_note`` after it; ``""`` when nothing was found."""
+        if not self.found:
+            return ""
+        extra = f"; {self.open_note}" if self.open_note else ""
+        return f"window {self.low:.4g}-{self.high:.4g}{extra}"
 
     def summary(self, *, note: bool = True) -> str:
-        """One line: ``V = 0.04 (cover 0.11, aligned 0.99; window 0.03-0.06)``, with
-        ``open_note`` unless ``note`` is False."""
+        """One line: ``V = 0.04: cover 0.11, aligned 0.99 (window 0.03-0.06)``: ``choice`` and
+        the window, with ``open_note`` unless ``note`` is False."""
         if not self.found:
-            return f"V = {self.best:.4g} ({self.explanation})"
+            return self.choice
         extra = f"; {self.open_note}" if note and self.open_note else ""
-        window = f"window {self.low:.4g}-{self.high:.4g}"
-        return f"V = {self.best:.4g} ({self.explanation}; {window}{extra})"
+        return f"{self.choice} (window {self.low:.4g}-{self.high:.4g}{extra})"
 
 
 def find_window(
