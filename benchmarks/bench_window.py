@@ -1,17 +1,19 @@
-"""Does ``find_window``'s probe predict the whole image's window of V, and how fast is it?
+"""Does ``find_window``'s probe predict the whole image's choice of V, and how fast is it?
 
 Prints figures, asserts nothing. For every image of the study
 (``benchmarks/study.py``: five photographs and textures, and the dark-field,
 noisy 16-bit and bright low-contrast images) at ``--size`` pixels square:
 
 - the *full sweep*: the whole image rendered with the default preset at every
-  V of ``find_window``'s grid, its edge enhancement (on the 0-255 tones) and
-  the window read from it as ``find_window`` reads the probe's;
+  V of ``find_window``'s grid, measured as the probe is (edge enhancement,
+  labyrinth cover, contour alignment, changed pixels, on the 0-255 tones),
+  and the V and window the criterion (``window_criterion.choose``) reads
+  from it;
 - ``find_window(image)``: the probe's window and its chosen V, whether that V
   lies inside the full sweep's window, and whether the probe's window is open
   (reaches the lowest or highest V probed: it may go on beyond them);
-- the edge enhancement of the whole image at the chosen V and at the best V
-  of the full sweep (what choosing on the probe costs).
+- the whole image's cover and edge enhancement at the chosen V and at the
+  full sweep's (what choosing on the probe costs).
 
 Then the time of ``find_window`` on one plane of 512² and 2048² (best of
 ``--rounds``, interleaved; the 2048² images are the study's images made at
@@ -45,38 +47,51 @@ def tones(image) -> np.ndarray:
     return resolve_tone_scale(image, None).to_tones(image)
 
 
+#: What the full sweep measures at each V, in the order of ``window_criterion.choose``'s curves.
+_MEASURED = ("edge_enhancement", "labyrinth_cover", "contour_alignment")
+
+
 def full_sweep(image, thresholds, **options):
-    """Edge enhancement of the whole image rendered at each V (default preset)."""
+    """The whole image rendered at each V (default preset): its edge enhancement, cover,
+    contour alignment and changed pixels (four lists), and the input's own cover."""
     from napari_labyrinth import labyrinth, metrics
     from napari_labyrinth.core.tone_scale import resolve_tone_scale
 
     scale = resolve_tone_scale(image, None)
     before = scale.to_tones(image)
-    return [
-        metrics.edge_enhancement(
-            before, scale.to_tones(labyrinth(image, variance_threshold=value, **options))
-        )
-        for value in thresholds
-    ]
+    comparison = metrics.Comparison(before)
+    curves = [[] for _ in range(len(_MEASURED) + 1)]
+    for value in thresholds:
+        rendered = labyrinth(image, variance_threshold=value, **options)
+        measured = comparison.measure(scale.to_tones(rendered), _MEASURED)
+        figures = [*(measured[name] for name in _MEASURED), float(np.mean(rendered != image))]
+        for curve, figure in zip(curves, figures):
+            curve.append(figure)
+    return curves, metrics.labyrinth_cover(before)
 
 
 def compare(images, *, out=sys.stdout) -> list[dict]:
-    """The table of full-sweep windows against find_window's, one row per image."""
-    from napari_labyrinth.window import find_window, window_of
+    """The table of the full sweep's choice against find_window's, one row per image."""
+    from napari_labyrinth.window import find_window
+    from napari_labyrinth.window_criterion import choose
 
     rows = []
     print(
-        "| image | full-sweep window | full best V | find_window window | open | chosen V | "
-        "inside | EE at chosen V | EE at full best V |",
+        "| image | full-sweep window | full-sweep V | find_window window | open | chosen V | "
+        "inside | cover at chosen V | cover at full-sweep V | EE at chosen V | "
+        "EE at full-sweep V |",
         file=out,
     )
-    print("|---|---|---|---|---|---|---|---|---|", file=out)
+    print("|---|---|---|---|---|---|---|---|---|---|---|", file=out)
     for name, image in images.items():
         window = find_window(image)
-        curve = full_sweep(image, window.thresholds)
-        low, best, high, found = window_of(window.thresholds, curve, default=float("nan"))
-        at_chosen = curve[window.thresholds.index(window.best)]
-        at_best = max(curve)
+        curves, input_cover = full_sweep(image, window.thresholds)
+        full = choose(*curves, input_cover=input_cover)
+        v = window.thresholds
+        low, best, high, found = v[full.low], v[full.best], v[full.high], full.found
+        chosen = v.index(window.best)
+        curve, cover = curves[0], curves[1]
+        at_chosen, at_best = curve[chosen], curve[full.best]
         inside = found and low <= window.best <= high
         rows.append(
             dict(
@@ -96,7 +111,8 @@ def compare(images, *, out=sys.stdout) -> list[dict]:
         print(
             f"| {name} | {low:.4g}-{high:.4g} | {best:.4g} | "
             f"{window.low:.4g}-{window.high:.4g} | {' '.join(ends) or '-'} | {window.best:.4g} | "
-            f"{'yes' if inside else 'NO'} | {at_chosen:.3f} | {at_best:.3f} |",
+            f"{'yes' if inside else 'NO'} | {cover[chosen]:.3f} | {cover[full.best]:.3f} | "
+            f"{at_chosen:.3f} | {at_best:.3f} |",
             file=out,
             flush=True,
         )

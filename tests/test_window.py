@@ -12,6 +12,7 @@ from napari_labyrinth.core.presets import resolve_parameters
 from napari_labyrinth.core.tone_scale import resolve_tone_scale
 from napari_labyrinth.io import read_image, write_image
 from napari_labyrinth.window import window_of
+from napari_labyrinth.window_criterion import ALIGNED, MIN_CHANGED
 
 #: A coarse grid of V (steps of 2 over the default grid's range): the tests that
 #: render whole images at every V use it to stay quick.
@@ -42,15 +43,33 @@ def camera_window():
     return image, find_window(image)
 
 
-def full_window(image, thresholds):
-    """The window read from the whole image rendered at every V (the study's sweep)."""
+def whole_image_curves(image, thresholds):
+    """The whole image rendered at every V (the study's sweep) and measured as the probe is:
+    edge enhancement, cover, alignment, changed; and the input's own cover."""
     scale = resolve_tone_scale(image, None)
     before = scale.to_tones(image)
-    curve = [
-        metrics.edge_enhancement(before, scale.to_tones(labyrinth(image, variance_threshold=v)))
-        for v in thresholds
-    ]
-    return window_of(thresholds, curve, default=np.nan)
+    comparison = metrics.Comparison(before)
+    names = ("edge_enhancement", "labyrinth_cover", "contour_alignment")
+    curves = []
+    for value in thresholds:
+        rendered = labyrinth(image, variance_threshold=value)
+        measured = comparison.measure(scale.to_tones(rendered), names)
+        curves.append([measured[name] for name in names] + [np.mean(rendered != image)])
+    return [np.array(curve) for curve in zip(*curves)], metrics.labyrinth_cover(before)
+
+
+def assert_auto_draws_what_a_person_sees(image, found, fraction=0.8):
+    """Issue 28's targets on the whole image: Auto never takes a V that draws no walls while
+    another does, and its cover is at least ``fraction`` of the best cover of aligned walls
+    (the walls a V draws: beyond the input's own cover)."""
+    (_, cover, alignment, changed), input_cover = whole_image_curves(image, found.thresholds)
+    draws = (cover >= input_cover + metrics.MIN_COVER) & (changed >= MIN_CHANGED)
+    chosen = found.thresholds.index(found.best)
+    if draws.any():
+        assert draws[chosen], (found.summary(), cover, changed)
+    along = draws & (np.nan_to_num(alignment, nan=0.0) >= ALIGNED)
+    if along.any():
+        assert cover[chosen] >= fraction * cover[along].max(), (found.summary(), cover)
 
 
 def test_window_of_a_hand_made_curve():
@@ -82,12 +101,26 @@ def test_find_window_is_deterministic_for_a_seed(images):
 
 
 @pytest.mark.parametrize("name", list(small_images(32)))
-def test_the_chosen_v_lies_inside_the_window_of_the_whole_image(images, name):
+def test_the_chosen_v_draws_walls_on_the_whole_image_if_any_v_does(images, name):
+    # a small probe (4 crops of 64²) misjudges the cover by more than the margin of the
+    # cover rule on these 192² images: benchmarks/auto_table.py measures that rule with the
+    # default probe on the study's images and the hard cases
     image = images[name]
-    window = find_window(image, crops=4, crop_size=64, thresholds=GRID)  # 4 of 9 cells
-    low, _, high, found = full_window(image, window.thresholds)
-    assert window.found and found
-    assert low <= window.best <= high, (window.summary(), low, high)
+    window = find_window(image, crops=4, crop_size=64, thresholds=GRID)
+    assert window.found and window.low <= window.best <= window.high
+    assert_auto_draws_what_a_person_sees(image, window, fraction=0.0)
+
+
+def test_auto_draws_walls_on_a_smooth_noisy_texture():
+    # a Schlieren texture with a camera's grey-level noise: the edge score was best where
+    # so few pixels change that those few sit on edges (cover 0.000 at V = 0.2263)
+    smooth = samples.nematic_schlieren((384, 384), seed=0, noise=0.0) * 255.0
+    noise = np.random.default_rng(0).normal(0.0, 2.0, smooth.shape)
+    image = np.clip(np.rint(smooth + noise), 0, 255).astype(np.uint8)
+    found = find_window(image)
+    assert found.found and found.reason.startswith("cover ")
+    assert_auto_draws_what_a_person_sees(image, found)
+    assert found.summary().startswith(f"V = {found.best:.4g}: {found.reason} (window ")
 
 
 def test_every_v_probed_is_a_v_the_form_shows(camera_window):
@@ -241,6 +274,19 @@ def test_the_cli_prints_the_v_it_chose_and_renders_with_it(tmp_path, capsys):
     assert main(["render", str(source), "-o", str(tmp_path / "set.tif"), "--set",
                  "variance_threshold=auto"]) == 0  # fmt: skip
     np.testing.assert_array_equal(read_image(tmp_path / "set.tif"), expected)
+
+
+def test_the_cli_prints_why_it_chose_v_as_the_widget_does(tmp_path, capsys):
+    smooth = samples.nematic_schlieren((128, 128), seed=0, noise=0.0) * 255.0
+    image = np.rint(smooth).astype(np.uint8)
+    source, target = tmp_path / "texture.png", tmp_path / "out.png"
+    write_image(source, image)
+    assert main(["render", str(source), "-o", str(target), "--variance-threshold", "auto"]) == 0
+    found = find_window(image)
+    assert found.reason.startswith("cover ") and ", aligned " in found.reason
+    assert found.choice == f"V = {found.best:.4g}: {found.reason}"  # the widget's caption
+    line = f"{source}: variance threshold auto: {found.choice} (window "
+    assert line in capsys.readouterr().err
 
 
 def test_the_cli_chooses_v_once_for_a_lazy_input(tmp_path, capsys, monkeypatch):

@@ -1,16 +1,16 @@
-"""The window of V: where the labyrinth follows the image's edges, measured on a probe.
+"""The window of V: where the labyrinth is drawn along the image's contours, measured on a probe.
 
-The labyrinth appears only in a narrow range of the variance threshold V of
-Eq. 4 (the paper's Fig. 3). The study behind the presets (``docs/study/``)
-measures it as the range of V whose *edge enhancement*
-(:func:`napari_labyrinth.metrics.edge_enhancement`: the correlation of the
-texture a rendering adds with the input's edges) is at least
-``WINDOW_FRACTION`` of its best: below it the walls flood smooth and dark
-regions, above it they fade and the smoothing of Eq. 2 takes over. Its
-position moves with the image's brightness, because the ratios of Eq. 2 and 4
-are relative to the local mean M.
+The labyrinth appears only in a range of the variance threshold V of Eq. 4
+(the paper's Fig. 3): below it the walls flood smooth and dark regions, above
+it they fade and the smoothing of Eq. 2 takes over. Its position moves with
+the image's brightness, because the ratios of Eq. 2 and 4 are relative to the
+local mean M. The study behind the presets (``docs/study/``) measured it by
+the *edge enhancement* (:func:`napari_labyrinth.metrics.edge_enhancement`);
+on smooth noisy textures that score is best where almost nothing is drawn,
+so Auto weighs what a person sees: the walls' cover, their alignment with the
+contours and the edge enhancement (:mod:`napari_labyrinth.window_criterion`).
 
-:func:`find_window` measures that curve on a *probe* of the image instead of
+:func:`find_window` measures those curves on a *probe* of the image instead of
 the whole image: a few crops at full resolution (the pattern is 1-2 pixels
 wide, so a downsampled copy would be another image), drawn from strata of
 local contrast so that edges, texture and flat background each get their
@@ -23,7 +23,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -34,6 +34,7 @@ from .core.parameters import FLOAT_DECIMALS, PARAMETERS, SEED, as_float
 from .core.planes import normalise_channel_axis
 from .core.presets import DEFAULT_PRESET, resolve_parameters
 from .lazy import checked_lazy, is_lazy
+from .window_criterion import WINDOW_FRACTION, Choice, choose
 
 __all__ = [
     "CROPS",
@@ -44,10 +45,6 @@ __all__ = [
     "Window",
     "find_window",
 ]
-
-#: The window holds every V whose edge enhancement is at least this fraction of
-#: the best (the study's definition, ``benchmarks/study.py``).
-WINDOW_FRACTION = 0.9
 
 #: V probed, as factors of the preset's V: 1/16 to 8 times it in steps of
 #: sqrt(2) (0.0025 to 0.32 around the labyrinth preset's 0.04: bright images
@@ -78,17 +75,17 @@ _RANK_STEP = 4
 
 @dataclasses.dataclass(frozen=True)
 class Window:
-    """The window of V of an image and the curve it was read from.
+    """The window of V of an image, the V chosen in it and why, and the curves they were read from.
 
     Attributes
     ----------
     low, best, high : float
-        The window's ends and the V of the best edge enhancement (Eq. 4's V,
-        on the scale of the preset's ``variance_ratio``). When no V adds
-        texture on the edges (``found`` is False), all three are the
-        preset's V.
+        The window's ends and the V chosen (Eq. 4's V, on the scale of the
+        preset's ``variance_ratio``): see :mod:`napari_labyrinth.window_criterion`.
+        When no V draws walls or adds texture on the edges (``found`` is
+        False), all three are the preset's V.
     found : bool
-        Whether some V gives a positive edge enhancement.
+        Whether some V draws walls or gives a positive edge enhancement.
     thresholds : tuple of float
         The V probed, increasing.
     edge_enhancement : tuple of float
@@ -101,10 +98,19 @@ class Window:
     crop_size : int
         Side of the crops (smaller when the image is).
     low_open, high_open : bool
-        Whether the window reaches the lowest (highest) V probed: the edge
-        enhancement was still within the window there, so the window may
-        extend beyond it (and, when ``best`` is that V, a better V may lie
-        beyond it).
+        Whether the window reaches the lowest (highest) V probed: the V there
+        still met the window's test, so the window may extend beyond it
+        (and, when ``best`` is that V, a better V may lie beyond it).
+    cover : tuple of float
+        The probe's labyrinth cover at each V (``metrics.labyrinth_cover``).
+    alignment : tuple of float
+        The contour alignment of the probe's walls at each V
+        (``metrics.contour_alignment``; NaN where walls cover less than 1 %).
+    input_cover : float
+        The labyrinth cover of the probe's input itself: walls a rendering
+        draws are those beyond it.
+    reason : str
+        Why ``best`` was chosen, in one line: ``"cover 0.21, aligned 0.74"``.
     """
 
     low: float
@@ -118,6 +124,10 @@ class Window:
     crop_size: int
     low_open: bool = False
     high_open: bool = False
+    cover: tuple[float, ...] = ()
+    alignment: tuple[float, ...] = ()
+    input_cover: float = 0.0
+    reason: str = ""
 
     def contains(self, value: float) -> bool:
         """Whether ``value`` lies in ``[low, high]``."""
@@ -130,16 +140,37 @@ class Window:
                 if is_open]  # fmt: skip
         return f"it reaches the {' and '.join(ends)} V probed" if ends else ""
 
-    def summary(self, *, note: bool = True) -> str:
-        """One line: ``V = 0.04 (window 0.03-0.06)``, with ``open_note`` unless ``note`` is
-        False."""
+    @property
+    def explanation(self) -> str:
+        """Why ``best``, in one line: ``reason``, or what kept every V from being measured."""
         if not self.found and all(math.isnan(value) for value in self.edge_enhancement):
-            reason = "the probe's crops hold NaN or infinite pixels: no V could be measured"
-            return f"V = {self.best:.4g} ({reason})"
+            return "the probe's crops hold NaN or infinite pixels: no V could be measured"
         if not self.found:
-            return f"V = {self.best:.4g} (no V draws the labyrinth on the edges)"
+            return self.reason or "no V draws the labyrinth on the edges"
+        return self.reason
+
+    @property
+    def choice(self) -> str:
+        """The V chosen and why, in one line: ``V = 0.04: cover 0.11, aligned 0.99`` (what the
+        widget's plot and the command line show)."""
+        chosen = f"V = {self.best:.4g}"
+        return f"{chosen}: {self.explanation}" if self.explanation else chosen
+
+    @property
+    def range_note(self) -> str:
+        """``window 0.03-0.06``, and ``open_note`` after it; ``""`` when nothing was found."""
+        if not self.found:
+            return ""
+        extra = f"; {self.open_note}" if self.open_note else ""
+        return f"window {self.low:.4g}-{self.high:.4g}{extra}"
+
+    def summary(self, *, note: bool = True) -> str:
+        """One line: ``V = 0.04: cover 0.11, aligned 0.99 (window 0.03-0.06)``: ``choice`` and
+        the window, with ``open_note`` unless ``note`` is False."""
+        if not self.found:
+            return self.choice
         extra = f"; {self.open_note}" if note and self.open_note else ""
-        return f"V = {self.best:.4g} (window {self.low:.4g}-{self.high:.4g}{extra})"
+        return f"{self.choice} (window {self.low:.4g}-{self.high:.4g}{extra})"
 
 
 def find_window(
@@ -159,14 +190,18 @@ def find_window(
     workers: int | None = None,
     **parameters: Any,
 ) -> Window:
-    """Find the window of the variance threshold V (Eq. 4) where the labyrinth follows edges.
+    """Find the variance threshold V (Eq. 4) at which the labyrinth is drawn along the contours.
 
     Renders a probe of the image (``crops`` crops of ``crop_size`` pixels,
     full resolution, from up to ``max_planes`` planes of a stack) at every V
-    of ``thresholds`` with the preset's other parameters, measures the edge
-    enhancement of each rendering, and returns the range of V where it is at
-    least ``WINDOW_FRACTION`` of its best, as the study of ``docs/study/``
-    defines the window. One V serves every plane of a stack.
+    of ``thresholds`` with the preset's other parameters, measures each
+    rendering's labyrinth cover, contour alignment, edge enhancement and
+    changed pixels, and chooses V from those curves by the criterion of
+    :func:`napari_labyrinth.window_criterion.choose`: among the V whose walls
+    run along the contours and cover at least ``COVER_FRACTION`` of the best
+    such cover, the V of the best edge enhancement; never a V that draws no
+    walls while another does. The result says why (``Window.reason``). One V
+    serves every plane of a stack.
 
     Parameters
     ----------
@@ -188,7 +223,7 @@ def find_window(
         The V to probe, increasing. Default: the preset's V times
         ``THRESHOLD_FACTORS``, rounded to ``FLOAT_DECIMALS``.
     widen : int, optional
-        When the best V is the highest of ``thresholds``, up to this many
+        When the V chosen is the highest of ``thresholds``, up to this many
         more V are probed above it, the grid's last step continued (rounded
         to ``FLOAT_DECIMALS``); 0 probes ``thresholds`` only.
     crops : int, optional
@@ -206,8 +241,9 @@ def find_window(
     Returns
     -------
     Window
-        ``low``, ``best``, ``high``, the measured curve, and whether the
-        window reaches an end of the V probed (``low_open``, ``high_open``).
+        ``low``, ``best``, ``high``, the measured curves, the reason for
+        ``best``, and whether the window reaches an end of the V probed
+        (``low_open``, ``high_open``).
 
     Raises
     ------
@@ -225,7 +261,7 @@ def find_window(
     its stratum nearest in rank, if there is one (the edge enhancement of a
     crop with such a pixel is undefined). Each crop
     is rendered on its own, at full resolution, with the tone scale of the
-    whole image; the edge enhancement is measured on the crops side by side.
+    whole image; the metrics are measured on the crops side by side.
     Only the crops and the ranking's subsampled cells are put on the tone
     scale; the V are rendered on ``workers`` threads, one V per task.
 
@@ -266,30 +302,46 @@ def find_window(
     probe = _Probe(originals, base, seed)
     with ThreadPoolExecutor(workers) as pool:
         measured = dict(zip(values, pool.map(probe.measure, values)))
-        low, best, high, found = window_of(values, [measured[v][0] for v in values], default=0)
-        if found and widen and best == values[-1]:
+        choice = _choice(values, measured, probe.input_cover)
+        if choice.found and widen and choice.best == len(values) - 1:
             more = _above(values, widen)
             measured.update(zip(more, pool.map(probe.measure, more)))
             values = sorted(measured)
-    curve = [measured[v][0] for v in values]
-    low, best, high, found = window_of(values, curve, default=base.variance_threshold)
+            choice = _choice(values, measured, probe.input_cover)
+    low, best, high = (
+        (values[choice.low], values[choice.best], values[choice.high])
+        if choice.found
+        else (base.variance_threshold,) * 3
+    )
+    curves = {
+        name: tuple(measured[v][k] for v in values) for k, name in enumerate(_Measures._fields)
+    }
     return Window(
         low=low,
         best=best,
         high=high,
-        found=found,
+        found=choice.found,
         thresholds=tuple(values),
-        edge_enhancement=tuple(curve),
-        changed=tuple(measured[v][1] for v in values),
         crops=tuple(where),
         crop_size=int(min(size)),
-        low_open=found and low == values[0],
-        high_open=found and high == values[-1],
+        low_open=choice.found and choice.low == 0,
+        high_open=choice.found and choice.high == len(values) - 1,
+        input_cover=probe.input_cover,
+        reason=choice.reason,
+        **curves,
     )
 
 
+def _choice(values: list[float], measured: dict, input_cover: float) -> Choice:
+    """The criterion's choice (``window_criterion.choose``) on the curves measured at
+    ``values``."""
+    curves = [[measured[v][k] for v in values] for k in range(len(_Measures._fields))]
+    return choose(*curves, input_cover=input_cover)
+
+
 def window_of(thresholds, curve, *, default: float, fraction: float = WINDOW_FRACTION):
-    """``(low, best, high, found)`` of a curve of edge enhancement against V.
+    """``(low, best, high, found)`` of a curve of edge enhancement against V, as the study
+    defines the window (``benchmarks/study.py``, ``bench_window.py``).
 
     The window is the run of consecutive V around the best whose value is at
     least ``fraction`` of the best (the study's definition, with the run kept
@@ -445,6 +497,19 @@ def _contrast(cell: np.ndarray) -> float:
     )
 
 
+#: The metrics of the probe at each V, in the order of ``_Measures``.
+_PROBED = ("edge_enhancement", "labyrinth_cover", "contour_alignment")
+
+
+class _Measures(NamedTuple):
+    """What the probe measures at one V (the curves of :class:`Window`)."""
+
+    edge_enhancement: float
+    cover: float
+    alignment: float
+    changed: float
+
+
 class _Probe:
     """The crops rendered at one V, side by side, and measured against the originals.
 
@@ -460,9 +525,13 @@ class _Probe:
         self.seed = seed
         # one thread per V: the comparison's own bands would only add threads
         self.comparison = metrics.Comparison(self.mosaic, workers=1)
+        # walls the input has already (a JPEG's blocks, fine texture) are not the labyrinth's
+        self.input_cover = self.comparison.measure(self.mosaic, ["labyrinth_cover"])[
+            "labyrinth_cover"
+        ]
 
-    def measure(self, value: float) -> tuple[float, float]:
-        """Edge enhancement of the probe rendered with V = ``value``, and the fraction changed."""
+    def measure(self, value: float) -> _Measures:
+        """The probe rendered with V = ``value``, measured."""
         parameters = dataclasses.replace(self.parameters, variance_threshold=value)
         rendered = []
         for index, original in enumerate(self.originals):
@@ -478,4 +547,6 @@ class _Probe:
                 )
             rendered.append(work)
         mosaic = np.concatenate(rendered, axis=0)
-        return self.comparison.edge_enhancement(mosaic), float(np.mean(mosaic != self.mosaic))
+        measured = self.comparison.measure(mosaic, _PROBED)
+        changed = float(np.mean(mosaic != self.mosaic))
+        return _Measures(*(measured[name] for name in _PROBED), changed)

@@ -224,6 +224,22 @@ def test_a_comparisons_edge_enhancement_is_the_one_describe_gives(cases, monkeyp
         comparison.edge_enhancement(np.zeros((9, 8)))
 
 
+def test_a_comparison_measures_the_metrics_asked_for_only(cases, monkeypatch):
+    comparison = metrics.Comparison(cases["original"], workers=1)
+    expected = metrics.describe(cases["original"], cases["labyrinth"])
+    asked = ["edge_enhancement", "labyrinth_cover"]
+    tensors = _count_tensors(monkeypatch)
+    measured = comparison.measure(cases["labyrinth"], asked)
+    assert measured == {name: expected[name] for name in ("labyrinth_cover", "edge_enhancement")}
+    assert tensors == []  # neither the walls' orientation nor the contours
+    wanted = ("contour_alignment", "labyrinth_cover", "edge_enhancement")
+    assert comparison.measure(cases["labyrinth"], wanted) == {
+        name: expected[name] for name in metrics.METRICS if name in wanted
+    }
+    with pytest.raises(ValueError, match=r"unknown metrics \['cover'\]; the metrics are"):
+        comparison.measure(cases["labyrinth"], ["cover"])
+
+
 def test_the_originals_contours_are_computed_where_walls_need_them_once(monkeypatch):
     """Rows of column tiles holding walls, each once; the same values as everywhere."""
     from napari_labyrinth.metrics import _kernels

@@ -4,7 +4,8 @@ A click measures :func:`napari_labyrinth.find_window` on the data the next run
 would render (the whole layer, or the plane on screen), with the form's other
 parameters, in a worker; the result sets the V field (so the run and its
 metadata record carry it like a typed value) and the plot shows the edge
-enhancement against V with the window shaded and the chosen V marked.
+enhancement and the labyrinth cover against V, the window shaded, the chosen V
+marked and why it was chosen (``Window.choice``, the line the command line prints).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from .plot_layout import INSET, SWATCH, FittedPlot, PlotLayout, compact_font, pl
 FIELD = "variance_threshold"
 
 _CURVE = "#f0a030"
+_COVER = "#60c060"
 _WINDOW = QColor(64, 176, 240, 60)
 
 
@@ -119,7 +121,7 @@ class AutoWindow:
         self.window = window
         self.form.fields[FIELD].value = window.best
         self.plot.show_window(window)
-        self._report(f"Auto {window.summary()}")
+        self._report(f"Auto {window.summary()}")  # the plot's caption says it too
 
     def _on_failed(self, error: Exception) -> None:
         self._report(f"Auto V failed: {error}")
@@ -129,12 +131,14 @@ class AutoWindow:
         self.worker = None
 
 
-#: What the Auto plot's curve is (its legend entry).
+#: What the Auto plot's curves are (their legend entries).
 CURVE_CAPTION = "edge enhancement"
+COVER_CAPTION = "cover (to its best)"
 
 
 class WindowPlot(FittedPlot):
-    """Edge enhancement against V (log scale), the window shaded, the chosen V marked."""
+    """Edge enhancement and cover against V (log scale), the window shaded, the chosen V
+    marked and why."""
 
     def __init__(self) -> None:
         super().__init__()
@@ -142,9 +146,12 @@ class WindowPlot(FittedPlot):
         self.setFont(compact_font(self.font()))
         self.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
         self.setToolTip(
-            "Edge enhancement of the probe against V (log scale): the shaded band is the "
-            "window (at least 90 % of the best), the line the chosen V. A window that "
-            "reaches the lowest or highest V probed may go on beyond it."
+            "The probe's edge enhancement and labyrinth cover (scaled to its best) against "
+            "V (log scale). Auto takes, among the V whose walls run along the contours and "
+            "cover at least 90 % of the best such cover, the V of the best edge enhancement "
+            "(the dashed line; its caption says what it draws). The shaded band is the "
+            "window around it. A window that reaches the lowest or highest V probed may go "
+            "on beyond it."
         )
         self.setVisible(False)
 
@@ -160,9 +167,18 @@ class WindowPlot(FittedPlot):
         """Where the curve, the V axis and the caption go at the widget's width."""
         thresholds = [v for v in self.window.thresholds if v > 0]
         axis = (f"{thresholds[0]:.3g}", "V (log scale)", f"{thresholds[-1]:.3g}")
-        note = [self.window.open_note] if self.window.open_note else []  # a line of its own
-        captions = [CURVE_CAPTION, self.window.summary(note=False), *note]
+        curves = [CURVE_CAPTION, COVER_CAPTION] if self._covers() else [CURVE_CAPTION]
+        note = [self.window.range_note] if self.window.range_note else []
+        captions = [*curves, self.window.choice, *note]
         return plot_layout(self.width(), self.fontMetrics(), axis, captions)
+
+    def _covers(self) -> list[tuple[float, float]]:
+        """``(V, cover)`` of the finite covers, if any is above 0."""
+        pairs = [
+            (v, c) for v, c in zip(self.window.thresholds, self.window.cover)
+            if v > 0 and math.isfinite(c)
+        ]  # fmt: skip
+        return pairs if any(c > 0 for _, c in pairs) else []
 
     def has_data(self) -> bool:
         return self.window is not None
@@ -205,30 +221,45 @@ class WindowPlot(FittedPlot):
             for v, e in zip(window.thresholds, window.edge_enhancement)
             if math.isfinite(e) and v > 0
         ]
-        painter.setPen(QPen(QColor(_CURVE), 2))
-        for a, b in zip(points, points[1:]):
-            painter.drawLine(a, b)
-        for point in points:
-            painter.drawEllipse(point, 2.5, 2.5)
+        covers = self._covers()
+        if covers:  # on its own scale: 0 at the bottom, its best near the top
+            top = max(c for _, c in covers) / 0.9
+            cover_points = [
+                QPointF(self.x_of(v, frame), frame.bottom() - frame.height() * c / top)
+                for v, c in covers
+            ]
+            _polyline(painter, cover_points, QColor(_COVER))
+        _polyline(painter, points, QColor(_CURVE))
         best = self.x_of(window.best, frame)
         painter.setPen(QPen(text, 1, Qt.PenStyle.DashLine))
         painter.drawLine(QPointF(best, frame.top()), QPointF(best, frame.bottom()))
-        (curve_rect, curve), (caption_rect, caption), *notes = rects.legend
-        middle = caption_rect.center().y()
-        painter.drawLine(  # the caption's swatch: the dashed line of the chosen V
-            QPointF(caption_rect.left() - SWATCH + 1, middle),
-            QPointF(caption_rect.left() - 4, middle),
-        )
-        painter.setPen(QPen(QColor(_CURVE), 2))
-        middle = curve_rect.center().y()
-        painter.drawLine(  # the curve's swatch
-            QPointF(curve_rect.left() - SWATCH + 1, middle), QPointF(curve_rect.left() - 4, middle)
-        )
+        swatches = [QColor(_CURVE), QColor(_COVER)][: 2 if covers else 1]
+        legend = rects.legend
+        for (rect, _), colour in zip(legend, swatches):  # the curves' swatches
+            _swatch(painter, rect, QPen(colour, 2))
+        choice_rect, _ = legend[len(swatches)]
+        _swatch(painter, choice_rect, QPen(text, 1, Qt.PenStyle.DashLine))  # the chosen V's
         painter.setPen(QPen(text, 1))
-        painter.drawText(curve_rect, int(Qt.AlignmentFlag.AlignLeft), curve)
         for rect, flags, axis_text in rects.axis:
             painter.drawText(rect, flags, axis_text)
-        painter.drawText(caption_rect, int(Qt.AlignmentFlag.AlignLeft), caption)
-        for note_rect, note in notes:  # the window may go on beyond the V probed
-            painter.drawText(note_rect, int(Qt.AlignmentFlag.AlignLeft), note)
+        for rect, caption in legend:  # the curves, the chosen V and why, the window
+            painter.drawText(rect, int(Qt.AlignmentFlag.AlignLeft), caption)
         painter.end()
+
+
+def _polyline(painter: QPainter, points: list[QPointF], colour: QColor) -> None:
+    """A curve through ``points``, a dot at each."""
+    painter.setPen(QPen(colour, 2))
+    for a, b in zip(points, points[1:]):
+        painter.drawLine(a, b)
+    for point in points:
+        painter.drawEllipse(point, 2.5, 2.5)
+
+
+def _swatch(painter: QPainter, caption: QRectF, pen: QPen) -> None:
+    """The short line left of a legend caption, drawn with ``pen``."""
+    painter.setPen(pen)
+    middle = caption.center().y()
+    painter.drawLine(
+        QPointF(caption.left() - SWATCH + 1, middle), QPointF(caption.left() - 4, middle)
+    )

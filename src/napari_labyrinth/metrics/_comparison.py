@@ -11,6 +11,7 @@ import numpy as np
 from ..core.tone_scale import resolve_tone_scale
 from ._bands import _copy_in_bands, _validate_workers
 from ._caches import _SHARED_POOL
+from ._definitions import METRICS
 from ._edges import _edge_enhancement
 from ._maps import _Maps
 from ._orientation import _contour_alignment, _orientation_coherence
@@ -113,22 +114,34 @@ class Comparison:
         after._taken.append(plane)
         return after
 
-    def _steps(self, after: _Maps) -> Iterator[tuple[str, float]]:
+    def _steps(self, after: _Maps, wanted=METRICS) -> Iterator[tuple[str, float]]:
         before = self._maps
         try:
-            yield "texture_added", _texture_added(before, after)
-            yield "labyrinth_cover", after.cover()
-            yield "wall_width", _wall_width(after)
-            yield "orientation_coherence", _orientation_coherence(after)
-            after.give_back_fine()  # the contours take its bytes
-            yield "contour_alignment", _contour_alignment(before, after)
-            yield "edge_enhancement", _edge_enhancement(before, after)
+            for name in METRICS:
+                if name == "contour_alignment":
+                    after.give_back_fine()  # the contours take its bytes
+                if name in wanted:
+                    yield name, _STEPS[name](before, after)
         finally:
             after.release()  # its arrays serve the next rendering
 
     def describe(self, rendered) -> dict[str, float]:
         """Every metric of ``rendered``, as a dict of floats in the order of :data:`METRICS`."""
         return dict(self.describe_steps(rendered))
+
+    def measure(self, rendered, names) -> dict[str, float]:
+        """The metrics ``names`` of ``rendered`` only, as ``describe`` gives them, without
+        the work of the others (in the order of :data:`METRICS`).
+
+        Raises
+        ------
+        ValueError
+            For a name that is not one of :data:`METRICS`.
+        """
+        unknown = [name for name in names if name not in METRICS]
+        if unknown:
+            raise ValueError(f"unknown metrics {unknown}; the metrics are {list(METRICS)}")
+        return dict(self._steps(self._rendering_maps(rendered), frozenset(names)))
 
     def edge_enhancement(self, rendered) -> float:
         """:func:`edge_enhancement` of ``rendered`` alone (the value ``describe`` gives),
@@ -138,3 +151,14 @@ class Comparison:
             return _edge_enhancement(self._maps, after)
         finally:
             after.release()
+
+
+#: Each metric of a rendering (``after``) of an original (``before``), by name.
+_STEPS = {
+    "texture_added": _texture_added,
+    "labyrinth_cover": lambda _before, after: after.cover(),
+    "wall_width": lambda _before, after: _wall_width(after),
+    "orientation_coherence": lambda _before, after: _orientation_coherence(after),
+    "contour_alignment": _contour_alignment,
+    "edge_enhancement": _edge_enhancement,
+}
