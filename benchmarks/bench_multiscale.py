@@ -12,9 +12,9 @@ screen two ways, interleaved run by run:
   through dask, the full level counting the chunks it reads.
 
 Each run: the widget's Run (default preset) to the multiscale result shown, wall time and
-the worker's time (the status's), the progress steps the widget received, the process's RSS
-before and its peak during the run (``VmHWM``, reset before each run through
-``/proc/self/clear_refs``). Then screenshots of the result zoomed in (1 data pixel = 6 screen
+the worker's time (the status's), the process's CPU time, the progress steps the widget
+received, the process's RSS before and its peak during the run (``VmHWM``, reset before each
+run through ``/proc/self/clear_refs``). Then screenshots of the result zoomed in (1 data pixel = 6 screen
 pixels, at the centre) and zoomed out (the whole image, napari showing the lowest level),
 saved as PNGs in ``--out``.
 """
@@ -35,6 +35,8 @@ import numpy as np
 SIDE = 8192
 #: Screen pixels per data pixel of the zoomed-in screenshot.
 ZOOMED_IN = 6.0
+#: Seconds the viewer is watched alone before each run.
+IDLE_SECONDS = 5.0
 
 
 def _write(path: str) -> None:
@@ -73,6 +75,22 @@ def _napari_dask_cache() -> float:
 
     cache = getattr(_dask_utils, "_DASK_CACHE", None)
     return cache.cache.total_bytes / 2**20 if cache is not None else float("nan")
+
+
+def _thread_cpu() -> dict[str, float]:
+    """CPU seconds of each thread of the process so far, by "name id" (``/proc``)."""
+    seconds = {}
+    for task in Path("/proc/self/task").iterdir():
+        try:
+            stat, name = (task / "stat").read_text(), (task / "comm").read_text().strip()
+        except OSError:  # the thread ended meanwhile
+            continue
+        fields = stat.rsplit(")", 1)[1].split()
+        main = " (main)" if task.name == str(os.getpid()) else ""
+        seconds[f"{name} {task.name}{main}"] = (int(fields[11]) + int(fields[12])) / os.sysconf(
+            "SC_CLK_TCK"
+        )
+    return seconds
 
 
 def _reset_peak() -> None:
@@ -126,21 +144,35 @@ def _open(viewer, path: str, way: str):
     return viewer.add_image(levels, multiscale=True, name="cam8192"), read
 
 
+def _busiest(before: dict[str, float], count: int = 4) -> str:
+    """The ``count`` threads that took the most CPU since ``before`` (``_thread_cpu``)."""
+    spent = {name: value - before.get(name, 0.0) for name, value in _thread_cpu().items()}
+    busiest = sorted(spent.items(), key=lambda item: -item[1])[:count]
+    return ", ".join(f"{name} {value:.1f} s" for name, value in busiest)
+
+
 def _run(viewer, widget, layer) -> dict:
     widget.image_layer.value = layer
     steps: list[int] = []
     _events(0.2)
+    threads = _thread_cpu()
+    _events(IDLE_SECONDS)  # the viewer alone, showing the layer
+    idle = _busiest(threads)
     before, _ = _rss()
     _reset_peak()
-    started = time.perf_counter()
+    threads = _thread_cpu()
+    started, cpu = time.perf_counter(), time.process_time()
     worker = widget.run()
     worker.yielded.connect(steps.append)
     _wait(lambda: widget.worker is None)
-    wall = time.perf_counter() - started
+    wall, cpu = time.perf_counter() - started, time.process_time() - cpu
     _, peak = _rss()
     seconds = re.search(r"\(([\d.]+) s\)", widget.status.value)
     return {
         "wall": wall,
+        "cpu": cpu,
+        "threads": _busiest(threads),
+        "idle": idle,
         "worker": float(seconds.group(1)) if seconds else float("nan"),
         "steps": f"{len(steps)} of {widget.progress_bar.maximum()}",
         "rss": before,
@@ -221,10 +253,11 @@ def main() -> None:
             rows.append(figure)
             print(
                 f"round {round_number + 1} {way:16} levels {shapes}: wall {figure['wall']:.1f} s,"
-                f" worker {figure['worker']:.1f} s, steps {figure['steps']}, RSS before"
+                f" worker {figure['worker']:.1f} s, CPU {figure['cpu']:.1f} s, steps {figure['steps']}, RSS before"
                 f" {figure['rss']:.0f} MB, peak {figure['peak']:.0f} MB, full level read:"
                 f" {figure['chunks']}; napari's dask cache {figure['dask cache']:.0f} MB;"
-                f" result levels {figure['result']} ({_load()})"
+                f" result levels {figure['result']} ({_load()})\n  busiest threads in the run:"
+                f" {figure['threads']}\n  in {IDLE_SECONDS:.0f} s before it: {figure['idle']}"
             )
             if round_number == arguments.runs - 1:
                 _screenshots(viewer, layer, result, out, way)
