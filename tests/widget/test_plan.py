@@ -356,11 +356,6 @@ def test_bad_choices_are_reported_by_the_plan():
     snapshot = LayerSnapshot.of(noise((8, 8)))
     with pytest.raises(ValueError, match="choose an image layer"):
         make_plan(None, Choices())
-    with pytest.raises(ValueError, match="'big' is a multiscale layer"):
-        make_plan(LayerSnapshot.of(noise((8, 8)), name="big", multiscale=True), Choices())
-    levels = [noise((16, 16)), noise((8, 8))]  # a list of levels: its ndim is given
-    with pytest.raises(ValueError, match="'big' is a multiscale layer"):
-        make_plan(LayerSnapshot.of(levels, name="big", multiscale=True, ndim=2), Choices())
     with pytest.raises(ValueError, match="mode must be one of"):
         make_plan(snapshot, Choices(mode="all"))
     with pytest.raises(ValueError, match="variance_threshold must be a number; got 'a'"):

@@ -15,11 +15,12 @@ from ..widget.text import tone_limit_text, tone_limits
 
 
 def layer_snapshot(layer: Image | None, world_point: Sequence[float]) -> LayerSnapshot | None:
-    """The layer as plain values, with the plane shown at ``world_point``; None without one."""
+    """The layer as plain values, with the plane shown at ``world_point`` (of a multiscale
+    layer: its index in the full level, and the level shown); None without one."""
     if layer is None:
         return None
     n_leading = layer.ndim - 2
-    if layer.multiscale or n_leading <= 0:
+    if n_leading <= 0:
         visible_index: tuple[int, ...] = ()
     else:
         coordinates = layer.world_to_data(world_point)[:n_leading]
@@ -44,6 +45,7 @@ def layer_snapshot(layer: Image | None, world_point: Sequence[float]) -> LayerSn
         interpolation2d=layer.interpolation2d,
         colormap=layer.colormap,
         visible_index=visible_index,
+        data_level=int(layer.data_level),
     )
 
 

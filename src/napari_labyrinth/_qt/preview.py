@@ -1,7 +1,7 @@
 """Live preview: the plane on screen re-rendered into one layer as the parameters change.
 
-While the preview is on, every change of a parameter, of the input or of the
-plane on screen restarts a short timer (debounce); when it fires, the plane
+While the preview is on, every change of a parameter, of the input, of the
+plane on screen or of the zoom (a multiscale input's level on screen) restarts a short timer (debounce); when it fires, the plane
 on screen is rendered in a worker. A newer request cancels the render in
 flight, and a render that is not the newest is never shown: each one carries
 a generation number, and only the newest generation updates the layer. The
@@ -89,6 +89,7 @@ class Preview:
         self._timer.setSingleShot(True)
         self._timer.setInterval(DEBOUNCE_MS)
         self._timer.timeout.connect(self._render)
+        viewer.camera.events.zoom.connect(self.request)  # a multiscale input's level
 
     @property
     def busy(self) -> bool:
@@ -126,7 +127,8 @@ class Preview:
         except (TypeError, ValueError) as exc:
             self._report(f"Preview: {exc}")
             return
-        key = (id(snapshot.data), snapshot.visible_index, repr(plan.arguments))
+        key = (id(snapshot.data), snapshot.visible_index, snapshot.data_level)
+        key += (repr(plan.arguments),)
         if key == self._key and self.layer is not None:
             return  # nothing that the preview shows changed
         self._key = key
@@ -211,3 +213,4 @@ class Preview:
     def close(self) -> None:
         """Stop for good (the widget is closing)."""
         self.set_enabled(False)
+        self.viewer.camera.events.zoom.disconnect(self.request)

@@ -101,7 +101,7 @@ def show_result(
 
     A ``previous`` result still in the viewer is replaced: updated in place (data,
     name, metadata, contrast, transforms; one step) when it can hold the new data
-    (same number of axes, both RGB or both not), else a new layer takes its place
+    (same number of axes, both RGB or both not, both multiscale or both not), else a new layer takes its place
     in the layer list. In place is much cheaper for the event loop: napari builds
     no new visual and no new controls, and removes no layer.
 
@@ -116,7 +116,7 @@ def show_result(
         layer.visible = False  # sliced once below, where the viewer will stand
         _update_in_place(layer, data, kwargs)
         viewer.layers.selection.active = layer
-        _go_to_last_plane(viewer, plan, layer, data)
+        _go_to_last_plane(viewer, plan, layer)
         layer.visible = True
         yield "updated in place"
         return layer
@@ -133,7 +133,7 @@ def show_result(
         if layer not in viewer.layers:
             return None
         viewer.layers.selection.active = layer
-        _go_to_last_plane(viewer, plan, layer, data)
+        _go_to_last_plane(viewer, plan, layer)
         yield "selected"
         if layer not in viewer.layers:
             return None
@@ -192,15 +192,15 @@ def insert_layer(viewer: Viewer, position: int, layer: Image) -> None:
     viewer.layers.insert(position, layer)
 
 
-def _go_to_last_plane(viewer: Viewer, plan: RenderPlan, layer: Image, data) -> None:
+def _go_to_last_plane(viewer: Viewer, plan: RenderPlan, layer: Image) -> None:
     """Move the slider of a stack's or sweep's leading axis to its last plane."""
     if plan.mode in ("stack", "sweep"):
         axis = viewer.dims.ndim - layer.ndim
-        viewer.dims.set_current_step(axis, data.shape[0] - 1)
+        viewer.dims.set_current_step(axis, layer.data.shape[0] - 1)
 
 
 #: Attributes of a result layer that an update in place sets (``data`` first); the rest of
-#: ``result_layer``'s keyword arguments (``rgb``) must already agree.
+#: ``result_layer``'s keyword arguments (``rgb``, ``multiscale``) must already agree.
 IN_PLACE = (
     "scale",
     "translate",
@@ -221,18 +221,19 @@ IN_PLACE = (
 
 
 def _updatable(viewer: Viewer, previous: Image | None, data, kwargs: dict) -> bool:
+    multiscale = bool(kwargs.get("multiscale", False))  # data: the list of its levels
     return (
         isinstance(previous, Image)
         and previous in viewer.layers
-        and not previous.multiscale
-        and previous.ndim == data.ndim
+        and previous.multiscale == multiscale
+        and previous.ndim == (data[0] if multiscale else data).ndim
         and previous.rgb == kwargs["rgb"]
     )
 
 
 def _update_in_place(layer: Image, data, kwargs: dict) -> None:
     """Give ``layer`` the data and settings of a new result (``result_layer``'s output)."""
-    unknown = set(kwargs) - set(IN_PLACE) - {"rgb"}
+    unknown = set(kwargs) - set(IN_PLACE) - {"rgb", "multiscale"}
     if unknown:  # pragma: no cover - a new keyword of result_layer not handled here
         raise ValueError(f"cannot update a layer in place with {sorted(unknown)}")
     layer.data = data

@@ -61,7 +61,10 @@ class LayerSnapshot:
     gamma, opacity, blending, interpolation2d, colormap
         Display settings, handed to the result layer as they are.
     visible_index : tuple of int
-        Index, in the leading axes of the data, of the plane the viewer shows.
+        Index, in the leading axes of the data (of a multiscale layer: of its full
+        level), of the plane the viewer shows.
+    data_level : int
+        The level of a multiscale layer the viewer shows (0, the full level, otherwise).
     """
 
     name: str
@@ -83,19 +86,22 @@ class LayerSnapshot:
     interpolation2d: Any
     colormap: Any
     visible_index: tuple[int, ...]
+    data_level: int = 0
 
     @classmethod
     def of(cls, data: Any, name: str = "image", rgb: bool = False, **fields: Any) -> LayerSnapshot:
         """A snapshot of an array shown as napari shows it by default (identity transforms).
 
-        ``fields`` override any attribute, e.g. ``scale=(2.0, 2.0)``.
+        ``fields`` override any attribute, e.g. ``scale=(2.0, 2.0)``; with
+        ``multiscale=True``, ``data`` is a sequence of levels, the full one first.
 
         Examples
         --------
         >>> LayerSnapshot.of(np.zeros((3, 8, 8))).axis_labels
         ('-3', '-2', '-1')
         """
-        ndim = fields.pop("ndim") if "ndim" in fields else np.ndim(data) - bool(rgb)
+        full = data[0] if fields.get("multiscale") else data
+        ndim = fields.pop("ndim") if "ndim" in fields else np.ndim(full) - bool(rgb)
         values = {
             "name": name,
             "data": data,
@@ -148,6 +154,9 @@ class Choices:
     colour : {"luminance", "channels"}
         How an RGB(A) layer is rendered: its luminance, the colour kept, or
         each channel on its own (ignored for other layers).
+    preview : bool
+        A preview: a multiscale layer's level on screen is rendered, not its full
+        level (:func:`preview_choices`).
     """
 
     mode: str = "single"
@@ -160,11 +169,15 @@ class Choices:
     sweep_text: str = ""
     metrics: bool = True
     colour: str = "luminance"
+    preview: bool = False
 
 
 def preview_choices(choices: Choices) -> Choices:
-    """The choices of a preview: one rendering of the plane on screen, no metrics."""
-    return dataclasses.replace(choices, mode="single", planes=CURRENT_PLANE, metrics=False)
+    """The choices of a preview: one rendering of the plane on screen (of a multiscale
+    layer, at the level on screen), no metrics."""
+    return dataclasses.replace(
+        choices, mode="single", planes=CURRENT_PLANE, metrics=False, preview=True
+    )
 
 
 def visible_plane(coordinates: Sequence[float], shape: Sequence[int]) -> tuple[int, ...]:

@@ -28,6 +28,7 @@ from ..lazy import is_in_memory
 from ..provenance import FUNCTIONS, call_arguments, input_record, rendering_record
 from .choices import CURRENT_PLANE, Choices, LayerSnapshot
 from .layer_kwargs import METADATA_KEY, result_layer_kwargs
+from .multiscale import level_snapshot, shown_level
 from .text import parse_sweep_values, plane_label, result_description, result_name, tone_limits
 
 __all__ = ["MODES", "Cancelled", "RenderPlan", "make_plan", "run_steps"]
@@ -81,6 +82,9 @@ class RenderPlan:
         Number of yields of the run (the progress bar's total).
     metrics : bool
         Whether a stack run measures every pass on the plane on screen.
+    levels : int
+        Levels of the result: 1, or those of a multiscale input, the lower ones
+        made from the rendered full level (:func:`.multiscale.lower_levels`).
     layer_kwargs : dict
         Keyword arguments of the result layer (name, transforms, contrast, metadata).
     """
@@ -96,6 +100,7 @@ class RenderPlan:
     total_steps: int
     layer_kwargs: dict[str, Any]
     metrics: bool = False
+    levels: int = 1
     cancel: threading.Event = dataclasses.field(default_factory=threading.Event)
     abort_requested: Callable[[], bool] = lambda: False
 
@@ -122,13 +127,22 @@ class RenderPlan:
 def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     """What a run with ``choices`` on the layer ``snapshot`` will do.
 
+    A multiscale layer renders as a plain layer of one of its levels: a
+    preview the level on screen, a run the full level, whose result gets as
+    many levels as the input (:mod:`.multiscale`).
+
     Raises
     ------
     ValueError, TypeError
-        With a message for the user when a choice is invalid (no layer, a
-        multiscale layer, bad tone limits, sweep values or parameters).
+        With a message for the user when a choice is invalid (no layer, bad
+        tone limits, sweep values or parameters).
     """
     _check_input(snapshot, choices.mode)
+    multiscale, levels = snapshot.multiscale, 1
+    if multiscale:
+        level = shown_level(snapshot) if choices.preview else 0
+        levels = 1 if choices.preview else len(snapshot.data)
+        snapshot = level_snapshot(snapshot, level)
     mode, preset, edits = choices.mode, choices.preset, dict(choices.overrides)
     resolved = resolve_parameters(preset, **edits)
     seed = SWEEPABLE["seed"].validate(choices.seed)  # 2.7 was truncated to 2
@@ -164,6 +178,7 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     stack_passes = resolved.passes if mode == "stack" and choices.metrics else 0
     rendered_shape = source.shape[0 if source_index is None else len(source_index) :]
     total = run_steps(rendered_shape, snapshot.rgb, passes_per_run, stack_passes, colour)
+    total += levels - 1  # one step per lower level of a multiscale result
 
     label = plane_label(snapshot.axis_labels, visible_index) if partial else ""
     name = result_name(snapshot.name, mode, sweep[0] if sweep else "", label)
@@ -186,6 +201,8 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
         source_index=list(source_index) if partial else None,
         lazy=lazy,
     )
+    if multiscale:
+        record.update(source_level=level, levels=levels)
     extra_axis = {"stack": "pass", "sweep": sweep[0] if sweep else None}.get(mode)
     layer_kwargs = result_layer_kwargs(
         snapshot, name, extra_axis, visible_index if partial else None
@@ -202,19 +219,15 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
         rgb=bool(snapshot.rgb),
         total_steps=total,
         metrics=mode == "stack" and choices.metrics,
+        levels=levels,
         layer_kwargs=layer_kwargs,
     )
 
 
 def _check_input(snapshot: LayerSnapshot | None, mode: str) -> None:
-    """Raise for what no run can render: no layer, a multiscale layer, an unknown mode."""
+    """Raise for what no run can render: no layer, an unknown mode."""
     if snapshot is None:
         raise ValueError("choose an image layer to render (add one, or open a sample)")
-    if snapshot.multiscale:
-        raise ValueError(
-            f"{snapshot.name!r} is a multiscale layer: add one of its resolution levels as "
-            "an image layer and render that"
-        )
     if mode not in MODES:
         raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
 

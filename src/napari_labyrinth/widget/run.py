@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import api
 from .layer_kwargs import METADATA_KEY
+from .multiscale import lower_levels
 from .pass_metrics import PassMetrics
 from .plan import Cancelled, RenderPlan
 
@@ -106,6 +107,8 @@ def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
         if plan.lazy_source is not None:
             offset = 0 if plan.mode == "single" else 1
             result = splice_plane(_lazy_result(plan), result, plan.visible_index, offset)
+        if plan.levels > 1:
+            result = yield from _pyramid(plan, result)
         if plan.should_stop():
             return None
         yield plan.total_steps
@@ -119,6 +122,18 @@ def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
         return Failure("not enough memory: render the current plane only, or a smaller image")
     except Exception as exc:  # noqa: BLE001 - anything else still reaches the user as a message
         return Failure(f"{type(exc).__name__}: {exc}")
+
+
+def _pyramid(plan: RenderPlan, full: Any) -> Generator[int, None, list[Any]]:
+    """The levels of a multiscale result, made from its rendered ``full`` level; a yield
+    after each lower level (the last steps of the run but one)."""
+    levels = [full]
+    for level in lower_levels(full, plan.levels, plan.rgb):
+        if plan.should_stop():
+            raise Cancelled
+        levels.append(level)
+        yield plan.total_steps - plan.levels + len(levels) - 1
+    return levels
 
 
 def _as_dask(data: Any, n_leading: int):
@@ -188,7 +203,8 @@ def result_layer(plan: RenderPlan, outcome: Outcome) -> tuple[Any, dict[str, Any
 
     The metadata record gains the diagnostics (and which planes they count)
     and the per-pass metrics. A single plane rendered alone gets size-1
-    leading axes that keep it at its place in the input.
+    leading axes that keep it at its place in the input. A multiscale result's
+    data is the list of its levels, full level first (``multiscale=True``).
     """
     kwargs = dict(plan.layer_kwargs)
     record = dict(kwargs["metadata"][METADATA_KEY])
@@ -208,6 +224,12 @@ def result_layer(plan: RenderPlan, outcome: Outcome) -> tuple[Any, dict[str, Any
     data = outcome.data
     if record["source_index"] is not None:
         n_extra = 0 if plan.mode == "single" else 1
-        index = record["source_index"]
-        data = data.reshape(data.shape[:n_extra] + (1,) * len(index) + data.shape[n_extra:])
+        n_index = len(record["source_index"])
+
+        def placed(level):
+            return level.reshape(level.shape[:n_extra] + (1,) * n_index + level.shape[n_extra:])
+
+        data = [placed(level) for level in data] if plan.levels > 1 else placed(data)
+    if plan.levels > 1:
+        kwargs["multiscale"] = True
     return data, kwargs

@@ -1,0 +1,117 @@
+"""Multiscale (pyramid) layers: which level a run renders, where it sits, and the result's levels.
+
+A multiscale layer holds its image at several resolutions, level 0 the full
+one; napari shows the level that fits the zoom (``layer.data_level``) and
+draws pixel ``i`` of level ``k`` at the full level's pixel ``i * f``, ``f``
+the level's downsampling factor (the full level's shape over the level's).
+
+- A preview renders the level on screen (:func:`shown_level`), placed over
+  the layer as napari places it: the layer's scale times the level's factor,
+  its translate kept (:func:`level_snapshot`).
+- Run renders the full level, and the result is a multiscale layer of as many
+  levels as the input, each lower level the 2 × 2 mean of the one above
+  (:func:`lower_levels`, the package's own pyramid code), so that every zoom
+  shows one pattern, walls one or two pixels wide included.
+
+No napari, no Qt: a snapshot's ``data`` is any sequence of arrays, full level
+first (napari's ``MultiScaleData``, a list of numpy, dask or zarr arrays).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..io._pyramid import halved, halved_shape
+from .choices import LayerSnapshot
+
+__all__ = [
+    "downsample_factors",
+    "level_snapshot",
+    "lower_levels",
+    "pyramid_axes",
+    "shown_level",
+]
+
+
+def downsample_factors(levels: Sequence[Any], ndim: int) -> np.ndarray:
+    """The ``(levels, ndim)`` factors of each level over the layer's dimensions, as napari
+    computes them: the full level's shape over the level's (a colour axis left out)."""
+    shapes = np.array([tuple(level.shape)[:ndim] for level in levels], dtype=float)
+    return shapes[0] / shapes
+
+
+def shown_level(snapshot: LayerSnapshot) -> int:
+    """The level the viewer shows (the snapshot's ``data_level``, within the levels)."""
+    return int(np.clip(snapshot.data_level, 0, len(snapshot.data) - 1))
+
+
+def level_snapshot(snapshot: LayerSnapshot, level: int) -> LayerSnapshot:
+    """``snapshot`` of a multiscale layer as a plain layer of its ``level``, placed over it.
+
+    The level's scale is the layer's times the level's factor and its
+    translate the layer's (rotation, shear and affine kept), so that it sits
+    where napari draws it; the plane on screen is the level's plane at the
+    full level's ``visible_index``.
+
+    Raises
+    ------
+    ValueError
+        If ``level`` is not one of the layer's levels.
+    """
+    if not 0 <= level < len(snapshot.data):
+        raise ValueError(f"level must be 0 to {len(snapshot.data) - 1}, got {level}")
+    factors = downsample_factors(snapshot.data, snapshot.ndim)[level]
+    data = snapshot.data[level]
+    n_leading = snapshot.ndim - 2
+    full_index = np.asarray(snapshot.visible_index, dtype=float)
+    visible_index = tuple(
+        int(np.clip(np.round(position), 0, size - 1))
+        for position, size in zip(
+            full_index / factors[:n_leading], data.shape[:n_leading], strict=True
+        )
+    )
+    return dataclasses.replace(
+        snapshot,
+        data=data,
+        multiscale=False,
+        data_level=0,
+        scale=np.asarray(snapshot.scale, dtype=float) * factors,
+        visible_index=visible_index,
+    )
+
+
+def pyramid_axes(rgb: bool) -> tuple[int, int]:
+    """The axes a result's levels halve: Y and X (before the colour axis of RGB data)."""
+    return (-3, -2) if rgb else (-2, -1)
+
+
+def lower_levels(full: Any, count: int, rgb: bool) -> Iterator[Any]:
+    """The ``count - 1`` levels below a rendered ``full`` level, each the 2 × 2 mean of the
+    one above in Y and X (``io._pyramid``), the levels of other axes kept.
+
+    A numpy level gives numpy levels; a dask level (a lazy result) gives lazy levels,
+    each plane halved when napari shows it.
+    """
+    axes = tuple(axis % np.ndim(full) for axis in pyramid_axes(rgb))
+    level = full
+    for _ in range(count - 1):
+        level = _halved_lazily(level, axes) if _is_dask(level) else halved(level, axes)
+        yield level
+
+
+def _is_dask(data: Any) -> bool:
+    return type(data).__module__.startswith("dask.")
+
+
+def _halved_lazily(image: Any, axes: tuple[int, ...]):
+    """A dask ``image`` halved along ``axes``, block by block, each block a whole plane."""
+    whole = image.rechunk({axis: -1 for axis in axes})
+    shape = halved_shape(image.shape, axes)
+    chunks = tuple(
+        (shape[axis],) if axis in axes else sizes for axis, sizes in enumerate(whole.chunks)
+    )
+    return whole.map_blocks(halved, axes=axes, chunks=chunks, dtype=image.dtype)
