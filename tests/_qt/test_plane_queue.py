@@ -89,10 +89,12 @@ def test_a_move_of_the_slider_renders_the_new_plane_next_and_shows_it(qtbot, vie
     _, layer, rendered = start_background(qtbot, viewer, widget, data, seconds=0.4, plane=4)
     viewer.dims.set_current_step(0, 0)  # 5 (being rendered) and 3 came first from 4: 0 is far
     assert not shown(layer).any(), "a plane not rendered yet is blank"
+    assert "blank until it is rendered" in widget.status.value
     qtbot.waitUntil(lambda: shown(layer).any(), timeout=RUN_TIMEOUT_MS)
     assert (0,) in rendered[:2], f"the plane on screen was not rendered next: {rendered}"
     expected = expected_planes(data, layer, "single")
     np.testing.assert_array_equal(shown(layer), expected[0])  # refreshed as it arrived
+    assert "blank" not in widget.status.value
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
     assert sorted(rendered) == [(0,), (1,), (2,), (3,), (5,)], "each plane rendered once"
 

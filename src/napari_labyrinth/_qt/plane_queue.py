@@ -75,6 +75,7 @@ class PlaneQueue(QObject):
         self._say: Callable[[str], None] | None = None
         self._description = "the result"
         self._format = ""
+        self._shown_rendered: bool | None = None  # whether the plane on screen is, as said
         self._released = False
         viewer.dims.events.current_step.connect(self._on_step)
         viewer.layers.events.removed.connect(self._on_layer_removed)
@@ -118,7 +119,8 @@ class PlaneQueue(QObject):
             progress_bar.setRange(0, self.total)
             progress_bar.setFormat("%v of %m planes")
             progress_bar.setValue(self.done)
-        self._tell(f"Added {description}; rendering the other planes in the background …")
+        self._shown_rendered = None
+        self._say_whether_shown(True)  # the run rendered the plane on screen
         order = self.background.order
         worker = create_worker(self.background.renders, lambda: order.cancelled)
         worker.yielded.connect(self._on_rendered)
@@ -158,15 +160,36 @@ class PlaneQueue(QObject):
         return visible_plane(coordinates[axis : axis + len(shape)], shape)
 
     def _on_step(self, *_args) -> None:
-        if not self._released:
-            self.background.order.move_focus(self.shown_plane())
+        if self._released:
+            return
+        plane = self.shown_plane()
+        self.background.order.move_focus(plane)
+        if self.worker is not None:
+            self._say_whether_shown(self.background.order.is_done(plane))
 
     def _on_rendered(self, index: tuple[int, ...]) -> None:
         if self._released:
             return
         if self.viewer.dims.ndisplay == 3 or index == self.shown_plane():
             self.layer.refresh()  # read back from the store, on the main thread
+            self._say_whether_shown(True)
         self.progressed.emit(self.done)
+
+    def _say_whether_shown(self, rendered: bool) -> None:
+        """Tell the user whether the plane on screen is rendered or blank for now (only
+        when that changes: each change of the text repaints the window)."""
+        if rendered == self._shown_rendered:
+            return
+        self._shown_rendered = rendered
+        if rendered:
+            self._tell(
+                f"Added {self._description}; rendering the other planes in the background …"
+            )
+        else:
+            self._tell(
+                f"Added {self._description}; rendering the other planes in the background: "
+                "the plane on screen is blank until it is rendered (it is next) …"
+            )
 
     def _on_finished(self) -> None:
         self.worker = None

@@ -7,7 +7,8 @@ back a :class:`LazyResult`: a :class:`~.plane_store.PlaneStore` holding that
 plane, which the result layer reads, and a :class:`~.plane_order.PlaneOrder`
 of the others. :meth:`LazyResult.renders` renders them one by one, in that
 order, each exactly as the API renders it (the plane alone, with its
-``plane_offset``: the same random stream as within the whole stack), and
+``plane_offset``: the same random stream as within the whole stack; on
+every core but one, left to the viewer), and
 yields the index of each plane written; a thread worker drives it
 (:mod:`napari_labyrinth._qt.plane_queue`), or a script drives it to its end
 with :meth:`LazyResult.render_all`.
@@ -15,6 +16,7 @@ with :meth:`LazyResult.render_all`.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Generator, Sequence
 from typing import Any
 
@@ -26,25 +28,36 @@ from .plan import RenderPlan
 from .plane_order import PlaneOrder
 from .plane_store import PlaneStore
 
-__all__ = ["LazyResult", "render_plane"]
+__all__ = ["LazyResult", "background_workers", "render_plane"]
 
 
 def _never() -> bool:
     return False
 
 
+def background_workers() -> int:
+    """Threads of a plane rendered in the background: every core but one, which is left to
+    the viewer (its main thread draws the planes as the user scrolls)."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, (cores or 1) - 1)
+
+
 def render_plane(
-    plan: RenderPlan, index: Sequence[int], should_stop: Callable[[], bool] = _never
+    plan: RenderPlan,
+    index: Sequence[int],
+    should_stop: Callable[[], bool] = _never,
+    workers: int | None = None,
 ) -> np.ndarray | None:
     """The rendering of the input plane at ``index`` of a lazy plan's source, as the API
     renders it within the whole stack; None if ``should_stop`` said so between two passes.
 
-    A stack's passes or a sweep's renderings come first, as in the result.
+    A stack's passes or a sweep's renderings come first, as in the result. ``workers``:
+    the API's threads (default: every core).
     """
     index = tuple(int(i) for i in index)
     source = plan.lazy_source
     plane = np.asarray(source[index])  # loads this plane only
-    arguments = dict(plan.arguments)
+    arguments = dict(plan.arguments, workers=workers)  # the result does not depend on them
     arguments["plane_offset"] = first_plane_index(
         source.shape, index, arguments.get("channel_axis")
     )
@@ -112,7 +125,11 @@ class LazyResult:
         """
         while (index := self.order.take()) is not None:
             try:
-                planes = None if should_stop() else render_plane(self.plan, index, should_stop)
+                planes = (
+                    None
+                    if should_stop()
+                    else render_plane(self.plan, index, should_stop, background_workers())
+                )
                 if planes is not None:
                     self.store.write(index, planes, self.axis)
             except BaseException:
