@@ -154,22 +154,31 @@ def test_rgb_levels_halve_y_and_x_and_keep_the_channels():
     assert kwargs["rgb"] is True
 
 
-def test_a_lazy_multiscale_stack_renders_the_visible_plane_and_keeps_every_level_lazy():
-    da = pytest.importorskip("dask.array")
+def test_a_lazy_multiscale_stack_renders_the_visible_plane_and_the_others_in_the_background():
+    pytest.importorskip("dask.array")
     full = noise((4, 32, 32), np.uint16, seed=6)
     lazy, loaded = counting_lazy(full)
     lower = pyramid(full)[1:]
     snapshot = multiscale([lazy, *lower], visible_index=(2,))
     plan = make_plan(snapshot, Choices(overrides={"passes": 1}))
     loaded.clear()
-    data, kwargs = run(plan)
-    assert set(loaded) == {2}, "only the visible plane of the full level may be loaded"
-    assert all(isinstance(level, da.Array) for level in data)
-    assert kwargs["metadata"][METADATA_KEY]["lazy"] is True
-    expected = api.labyrinth(full, passes=1, tone_limits=LIMITS)
-    np.testing.assert_array_equal(np.asarray(data[0]), expected)
-    for level, want in zip(data[1:], pyramid(expected)[1:], strict=True):
-        np.testing.assert_array_equal(np.asarray(level), want)  # each lazy plane halved
+    steps, outcome = drive(plan)
+    assert steps == list(range(1, plan.total_steps + 1))
+    try:
+        data, kwargs = result_layer(plan, outcome)
+        assert set(loaded) == {2}, "only the visible plane of the full level may be loaded"
+        assert kwargs["metadata"][METADATA_KEY]["lazy"] is True
+        expected = api.labyrinth(full, passes=1, tone_limits=LIMITS)
+        want = pyramid(expected)
+        for level, wanted in zip(data, want, strict=True):  # the plane on screen, on every level
+            np.testing.assert_array_equal(np.asarray(level[2]), wanted[2])
+            assert not np.asarray(level[0]).any()  # not rendered yet: blank
+        outcome.background.render_all()
+        for level, wanted in zip(data, want, strict=True):  # each level read as it is now
+            np.testing.assert_array_equal(np.asarray(level), wanted)
+            np.testing.assert_array_equal(level[1:3, 2:9, ::2], wanted[1:3, 2:9, ::2])
+    finally:
+        outcome.background.remove()
 
 
 def test_lower_levels_of_a_dask_level_equal_those_of_its_array():

@@ -22,7 +22,6 @@ from napari_labyrinth.widget.run import (
     diagnostics_record,
     render,
     result_layer,
-    splice_plane,
 )
 from napari_labyrinth.widget.text import METRIC_ROWS
 
@@ -193,8 +192,8 @@ def test_a_seed_sweep_renders_with_each_seed():
 
 
 @pytest.mark.parametrize("mode", ["single", "stack", "sweep"])
-def test_a_lazy_run_loads_the_visible_plane_only(mode):
-    da = pytest.importorskip("dask.array")
+def test_a_lazy_run_loads_the_visible_plane_only_and_the_rest_renders_after(mode):
+    pytest.importorskip("dask.array")
     data = noise((5, 16, 16))
     lazy, loaded = counting_lazy(data)
     snapshot = LayerSnapshot.of(lazy, visible_index=(3,))
@@ -204,12 +203,37 @@ def test_a_lazy_run_loads_the_visible_plane_only(mode):
     steps, outcome = drive(plan)
     assert set(loaded) == {3}, "only the visible plane may be loaded"
     assert len(steps) == plan.total_steps
-    assert isinstance(outcome.data, da.Array)
+    background = outcome.background
+    assert outcome.data is background.data and not background.complete
     layer_data, kwargs = result_layer(plan, outcome)
     record = kwargs["metadata"][METADATA_KEY]
-    assert record["diagnostics_scope"] == "the plane on screen (the others render lazily)"
+    assert record["diagnostics_scope"] == "the plane on screen (the others render in the background)"
     assert record["diagnostics_plane"] == [3]
-    np.testing.assert_array_equal(np.asarray(layer_data), reproduce(kwargs, data))
+    expected = reproduce(kwargs, data)
+    axis = 0 if mode == "single" else 1
+    shown = np.take(np.asarray(layer_data), 3, axis=axis)
+    np.testing.assert_array_equal(shown, np.take(expected, 3, axis=axis))
+    background.render_all()
+    assert background.complete
+    np.testing.assert_array_equal(np.asarray(layer_data), expected)
+    background.remove()
+    assert not background.store.path.exists()
+
+
+def test_a_lazy_run_cancelled_leaves_no_store(tmp_path, monkeypatch):
+    pytest.importorskip("dask.array")
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
+    lazy, _ = counting_lazy(noise((4, 16, 16)))
+    plan = make_plan(LayerSnapshot.of(lazy, visible_index=(1,)), Choices())
+    # cancelled as the last step is yielded: the store of the plane on screen is made by then
+
+    def on_last_step(step):
+        if step == plan.total_steps:
+            plan.cancel.set()
+
+    steps, outcome = drive(plan, on_step=on_last_step)
+    assert steps[-1] == plan.total_steps and outcome is None
+    assert not list(tmp_path.iterdir())
 
 
 @pytest.mark.parametrize("workers", [1, 2])
@@ -245,22 +269,6 @@ def test_api_errors_come_back_as_a_message():
     assert steps == []
     assert isinstance(outcome, Failure)
     assert "dtype int64 is not supported" in outcome.message
-
-
-def test_splice_plane_replaces_one_plane_of_a_lazy_array():
-    da = pytest.importorskip("dask.array")
-    lazy = da.zeros((3, 4, 2, 2), chunks=(1, 1, 2, 2), dtype=int)
-    plane = np.array([[1, 2], [3, 4]])
-    spliced = splice_plane(lazy, plane, (1, 3), 0)
-    expected = np.zeros((3, 4, 2, 2), dtype=int)
-    expected[1, 3] = plane
-    np.testing.assert_array_equal(spliced.compute(), expected)
-    # a stack: the plane of every pass, on the axis after the pass axis
-    passes = np.arange(8).reshape(2, 2, 2)
-    spliced = splice_plane(da.zeros((2, 3, 2, 2), dtype=int), passes, (2,), 1)
-    expected = np.zeros((2, 3, 2, 2), dtype=int)
-    expected[:, 2] = passes
-    np.testing.assert_array_equal(spliced.compute(), expected)
 
 
 def test_layer_snapshot_defaults_are_napari_defaults():

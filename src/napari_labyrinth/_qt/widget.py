@@ -46,6 +46,7 @@ from .inputs import InputSection
 from .lifecycle import ClosesWithItsDock
 from .metrics_plot import MetricsPlot
 from .metrics_table import MetricsTable
+from .plane_queue import PlaneQueue
 from .preview import Preview
 from .sweep_label import SweepLabel
 from .warm_up import PREPARING, WarmUp
@@ -517,9 +518,19 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
                 self._shown_plane = tuple(plan.visible_index)
                 QTimer.singleShot(0, self._reveal_metrics)
             self.status.value = f"Added {plan.description} ({outcome.seconds:.1f} s)"
+            if outcome.background is not None:  # a lazy input: the other planes still to render
+                self._render_in_background(plan, layer, outcome.background)
+                return
         else:
             self.status.value = "The result layer was removed before it was shown."
         self._settle()
+
+    def _render_in_background(self, plan: RenderPlan, layer: Image, background) -> None:
+        """The run goes on (progress, Cancel) while the other planes of a lazy result render."""
+        self.worker = queue = PlaneQueue(self.viewer, layer, background, main_window(self))
+        queue.progressed.connect(self._on_progress)
+        queue.ended.connect(self._settle)
+        queue.start(self.progress_bar, self._say, plan.description)
 
     def _reveal_metrics(self, attempts: int = 10, last: tuple = ()) -> None:
         """Scroll the dock to the metrics just shown: the plot in full, and the table's

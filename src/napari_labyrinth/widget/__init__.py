@@ -10,6 +10,10 @@ wires them to this package, which a script or a test drives alike:
 - :mod:`~napari_labyrinth.widget.run`: the run, a generator that yields
   progress (:func:`render`), and the result layer it hands back
   (:func:`result_layer`);
+- :mod:`~napari_labyrinth.widget.lazy_result`: a lazy input's result, its
+  other planes rendered in the background
+  (:mod:`~napari_labyrinth.widget.plane_order`: where the user looks first;
+  :mod:`~napari_labyrinth.widget.plane_store`: a temporary zarr on disk);
 - :mod:`~napari_labyrinth.widget.pass_metrics`: the metrics of a stack's passes;
 - :mod:`~napari_labyrinth.widget.text`: text typed and shown (sweep values,
   tone limits, layer names, labels, the metrics table);

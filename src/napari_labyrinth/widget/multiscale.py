@@ -93,14 +93,68 @@ def lower_levels(full: Any, count: int, rgb: bool) -> Iterator[Any]:
     """The ``count - 1`` levels below a rendered ``full`` level, each the 2 × 2 mean of the
     one above in Y and X (``io._pyramid``), the levels of other axes kept.
 
-    A numpy level gives numpy levels; a dask level (a lazy result) gives lazy levels,
-    each plane halved when napari shows it.
+    A numpy level gives numpy levels; a dask level gives lazy levels, each plane
+    halved when napari shows it; any other array (a lazy result's store on disk,
+    whose planes are rendered in the background) gives :class:`HalvedOnRead`
+    levels, which halve the planes as they are when napari reads them.
     """
-    axes = tuple(axis % np.ndim(full) for axis in pyramid_axes(rgb))
+    axes = tuple(axis % len(full.shape) for axis in pyramid_axes(rgb))
     level = full
     for _ in range(count - 1):
-        level = _halved_lazily(level, axes) if _is_dask(level) else halved(level, axes)
+        if isinstance(level, np.ndarray):
+            level = halved(level, axes)
+        elif _is_dask(level):
+            level = _halved_lazily(level, axes)
+        else:
+            level = HalvedOnRead(level, axes)
         yield level
+
+
+class HalvedOnRead:
+    """An array ``source`` halved along ``axes`` (``io._pyramid.halved``) each time it is read.
+
+    A level of a result whose planes are still being written (a dask level
+    would keep what napari's cache held of a plane read before it was
+    rendered): reading ``level[key]`` reads the planes ``key`` selects, whole
+    over ``axes``, from the source and halves them.
+
+    Parameters
+    ----------
+    source : array-like
+        ``shape``, ``dtype`` and ``source[key]`` for ints and slices.
+    axes : sequence of int
+        The axes halved (non-negative).
+    """
+
+    def __init__(self, source: Any, axes: Sequence[int]) -> None:
+        self.source = source
+        self.axes = tuple(sorted({int(axis) % len(source.shape) for axis in axes}))
+        self.shape = halved_shape(tuple(source.shape), self.axes)
+        self.dtype = np.dtype(source.dtype)
+        self.ndim = len(self.shape)
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        whole = self[(slice(None),) * self.ndim]
+        return whole if dtype is None else whole.astype(dtype)
+
+    def __getitem__(self, key: Any) -> np.ndarray:
+        key = _full_key(key, self.ndim)
+        if not all(isinstance(k, (slice, int, np.integer)) for k in key):
+            return np.asarray(self)[key]  # fancy indexing: from the whole level
+        outer = tuple(slice(None) if axis in self.axes else k for axis, k in enumerate(key))
+        block = np.asarray(self.source[outer])
+        kept = [axis for axis, k in enumerate(key) if axis in self.axes or isinstance(k, slice)]
+        small = halved(block, [kept.index(axis) for axis in self.axes])
+        return small[tuple(key[axis] if axis in self.axes else slice(None) for axis in kept)]
+
+
+def _full_key(key: Any, ndim: int) -> tuple[Any, ...]:
+    """``key`` as a tuple of one entry per axis (an ``Ellipsis`` expanded, the rest padded)."""
+    key = key if isinstance(key, tuple) else (key,)
+    if any(k is Ellipsis for k in key):
+        at = next(i for i, k in enumerate(key) if k is Ellipsis)
+        key = key[:at] + (slice(None),) * (ndim - len(key) + 1) + key[at + 1 :]
+    return key + (slice(None),) * (ndim - len(key))
 
 
 def _is_dask(data: Any) -> bool:

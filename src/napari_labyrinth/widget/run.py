@@ -12,8 +12,10 @@ once. :func:`result_layer` turns the outcome into the data and keyword
 arguments of the result layer.
 
 Lazy (dask-backed) input layers: only the plane the viewer shows is loaded
-and rendered by the run; the other planes of the result stay lazy and are
-rendered by napari when the slider reaches them (:func:`splice_plane`).
+and rendered by the run; it goes to a store on disk with room for the other
+planes, which render in the background afterwards (the outcome's
+:class:`~napari_labyrinth.widget.lazy_result.LazyResult`), never on napari's
+main thread.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import numpy as np
 
 from .. import api
 from .layer_kwargs import METADATA_KEY
+from .lazy_result import LazyResult
 from .multiscale import lower_levels
 from .pass_metrics import PassMetrics
 from .plan import Cancelled, RenderPlan
@@ -37,7 +40,6 @@ __all__ = [
     "diagnostics_record",
     "render",
     "result_layer",
-    "splice_plane",
 ]
 
 
@@ -50,12 +52,17 @@ class Failure:
 
 @dataclasses.dataclass
 class Outcome:
-    """What a finished run hands back to the main thread."""
+    """What a finished run hands back to the main thread.
+
+    ``background``: for a lazy input, the result whose other planes are still to
+    render (``data`` is its store's array).
+    """
 
     data: Any
     diagnostics: Any
     metric_rows: list[dict[str, float]]
     seconds: float
+    background: LazyResult | None = None
 
 
 def _api_steps(
@@ -99,21 +106,8 @@ def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
     Returns an :class:`Outcome`, a :class:`Failure` with a message for the
     user, or None when cancelled (``plan.cancel`` set, or ``plan.abort_requested()``).
     """
-    started = time.perf_counter()
     try:
-        data = np.asarray(plan.data)  # for lazy input: loads one plane only
-        measure = PassMetrics(plan, data) if plan.metrics else None
-        result, diagnostics = yield from _api_steps(plan, data, measure)
-        if plan.lazy_source is not None:
-            offset = 0 if plan.mode == "single" else 1
-            result = splice_plane(_lazy_result(plan), result, plan.visible_index, offset)
-        if plan.levels > 1:
-            result = yield from _pyramid(plan, result)
-        if plan.should_stop():
-            return None
-        yield plan.total_steps
-        rows = measure.rows if measure is not None else []
-        return Outcome(result, diagnostics, rows, time.perf_counter() - started)
+        return (yield from _outcome(plan))
     except Cancelled:
         return None
     except (TypeError, ValueError) as exc:  # the API names the parameter at fault
@@ -122,6 +116,33 @@ def render(plan: RenderPlan) -> Generator[int, None, Outcome | Failure | None]:
         return Failure("not enough memory: render the current plane only, or a smaller image")
     except Exception as exc:  # noqa: BLE001 - anything else still reaches the user as a message
         return Failure(f"{type(exc).__name__}: {exc}")
+
+
+def _outcome(plan: RenderPlan) -> Generator[int, None, Outcome | None]:
+    """:func:`render`'s steps, raising what goes wrong; a lazy result's store is removed
+    when the run does not end with an outcome."""
+    started = time.perf_counter()
+    background = None
+    try:
+        data = np.asarray(plan.data)  # for lazy input: loads one plane only
+        measure = PassMetrics(plan, data) if plan.metrics else None
+        result, diagnostics = yield from _api_steps(plan, data, measure)
+        if plan.should_stop():
+            raise Cancelled
+        if plan.lazy_source is not None:  # the other planes render in the background
+            background = LazyResult(plan, result)
+            result = background.data
+        if plan.levels > 1:
+            result = yield from _pyramid(plan, result)
+        yield plan.total_steps
+        if plan.should_stop():
+            raise Cancelled
+    except BaseException:
+        if background is not None:
+            background.remove()
+        raise
+    rows = measure.rows if measure is not None else []
+    return Outcome(result, diagnostics, rows, time.perf_counter() - started, background)
 
 
 def _pyramid(plan: RenderPlan, full: Any) -> Generator[int, None, list[Any]]:
@@ -134,55 +155,6 @@ def _pyramid(plan: RenderPlan, full: Any) -> Generator[int, None, list[Any]]:
         levels.append(level)
         yield plan.total_steps - plan.levels + len(levels) - 1
     return levels
-
-
-def _as_dask(data: Any, n_leading: int):
-    """``data`` as a dask array with one chunk per plane."""
-    import dask.array as da
-
-    if isinstance(data, da.Array):
-        return data
-    chunks = (1,) * n_leading + tuple(data.shape[n_leading:])
-    return da.from_array(data, chunks=chunks)
-
-
-def _lazy_result(plan: RenderPlan):
-    """The whole result as a lazy dask array (the API renders dask input lazily)."""
-    import dask.array as da
-
-    source = _as_dask(plan.lazy_source, len(plan.visible_index))
-    arguments = {k: v for k, v in plan.arguments.items() if k != "plane_offset"}
-    (result,) = api.labyrinth_steps(source, plan.mode, **arguments)  # lazy: the result only
-    if not isinstance(result.image, da.Array):
-        raise TypeError("this version of napari_labyrinth.api does not render dask arrays lazily")
-    return result.image
-
-
-def splice_plane(lazy, rendered_plane: np.ndarray, index: tuple[int, ...], axis: int):
-    """``lazy`` with the plane at ``index`` (on the axes from ``axis``) replaced by an array.
-
-    The visible plane, rendered by the run, goes into the lazy result so
-    that napari shows it at once without rendering it again.
-    """
-    import dask.array as da
-
-    if not index:
-        block = np.asarray(rendered_plane).reshape(lazy.shape)
-        return da.from_array(block, chunks=block.shape)
-    position = index[0]
-
-    def take(part: slice):
-        return lazy[(slice(None),) * axis + (part,)]
-
-    parts = []
-    if position > 0:
-        parts.append(take(slice(0, position)))
-    parts.append(
-        splice_plane(take(slice(position, position + 1)), rendered_plane, index[1:], axis + 1)
-    )
-    if position + 1 < lazy.shape[axis]:
-        parts.append(take(slice(position + 1, None)))
-    return da.concatenate(parts, axis=axis) if len(parts) > 1 else parts[0]
 
 
 # -- the result layer --------------------------------------------------------------------------
@@ -215,7 +187,7 @@ def result_layer(plan: RenderPlan, outcome: Outcome) -> tuple[Any, dict[str, Any
     if plan.source_index is None:
         record["diagnostics_scope"] = "all planes"
     elif plan.lazy_source is not None:
-        record["diagnostics_scope"] = "the plane on screen (the others render lazily)"
+        record["diagnostics_scope"] = "the plane on screen (the others render in the background)"
         record["diagnostics_plane"] = list(plan.visible_index)
     else:
         record["diagnostics_scope"] = "the rendered plane"
