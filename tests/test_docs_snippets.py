@@ -109,6 +109,11 @@ def inputs(tmp_path_factory):
             }
         ],
     }
+    plane = rng.integers(100, 4000, (384, 320), dtype=np.uint16)  # "one plane too large"
+    zarr.create_array(here / "big.zarr", shape=plane.shape, chunks=(32, 320), dtype="uint16")[
+        ...
+    ] = plane
+    tifffile.imwrite(here / "big.tif", plane)
     plate = zarr.open_group(here / "plate.zarr", mode="w")
     plate.create_array("raw", shape=stack16.shape, dtype="uint16")[...] = stack16
     plate.create_array("mask", shape=stack16.shape, dtype="uint8")
