@@ -94,8 +94,10 @@ def scroll(viewer, axis: int = 0) -> dict:
     stepper = QTimer()
     stepper.setInterval(STEP_MS)
     position = {"step": 0, "done": None}
+    stepped: list[float] = []  # when each step began
 
     def step() -> None:
+        stepped.append(time.perf_counter())
         position["step"] += 1
         viewer.dims.set_current_step(axis, position["step"])
         if position["step"] >= PLANES - 1:
@@ -114,7 +116,10 @@ def scroll(viewer, axis: int = 0) -> dict:
     heartbeat.stop()
     wall = position["done"] - started
     gaps = np.diff(ticks) * 1000
-    result = {"wall": wall, "longest": float(gaps.max())}
+    longest = int(np.argmax(gaps))
+    # the step under way when the longest gap began (0: before the first step)
+    at = int(np.searchsorted(stepped, ticks[longest], side="right"))
+    result = {"wall": wall, "longest": float(gaps.max()), "longest at step": at}
     for limit in FREEZES_MS:
         result[f"over{limit}"] = int((gaps > limit).sum())
     return result
@@ -187,7 +192,8 @@ def _run_child(variant: str, src: str, screenshot: str | None) -> dict:
 
 def _row(label: str, phase: dict) -> str:
     return (
-        f"    {label:<16} wall {phase['wall']:6.1f} s   longest {phase['longest']:5.0f} ms   "
+        f"    {label:<16} wall {phase['wall']:6.1f} s   longest {phase['longest']:5.0f} ms "
+        f"(step {phase.get('longest at step', '?'):>2})   "
         + "   ".join(f"> {limit} ms: {phase[f'over{limit}']:2d}" for limit in FREEZES_MS)
     )
 
