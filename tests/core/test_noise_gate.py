@@ -11,7 +11,12 @@ import pytest
 
 from napari_labyrinth import labyrinth, labyrinth_steps, resolve_parameters, samples
 from napari_labyrinth.core._reference import reference_render
-from napari_labyrinth.core.noise import noise_sigma, tone_noise_sigma, variance_floor
+from napari_labyrinth.core.noise import (
+    dark_field_sigma,
+    noise_sigma,
+    tone_noise_sigma,
+    variance_floor,
+)
 from napari_labyrinth.core.parameters import PARAMETERS
 from napari_labyrinth.core.presets import PRESETS
 from napari_labyrinth.core.tone_scale import ToneScale, resolve_tone_scale
@@ -151,3 +156,37 @@ def test_the_noise_of_a_plane_does_not_depend_on_the_bands_it_is_read_in(band_ro
     plane[100:200, 20:60] = 220
     scale = resolve_tone_scale(plane, None)
     assert tone_noise_sigma(plane, scale, band_rows=band_rows) == tone_noise_sigma(plane, scale)
+
+
+@pytest.mark.parametrize("sigma", [1.0, 2.0, 4.0])
+def test_the_dark_field_s_estimate_finds_the_deviation_of_white_noise_within_ten_percent(sigma):
+    rng = np.random.default_rng(int(10 * sigma))
+    field = (8.0 + rng.normal(0.0, sigma, (256, 300))).astype(np.float32)
+    estimate = dark_field_sigma(field, ToneScale(0.0, 255.0))
+    assert abs(estimate - sigma) < 0.1 * sigma, estimate
+
+
+def _jpeg(plane: np.ndarray, quality: int) -> np.ndarray:
+    import io
+
+    import imageio.v3 as iio
+
+    buffer = io.BytesIO()
+    iio.imwrite(buffer, plane, extension=".jpg", quality=quality)
+    return iio.imread(buffer.getvalue(), extension=".jpg")
+
+
+def test_the_dark_field_s_estimate_reads_correlated_noise_within_twenty_percent():
+    # noise correlated between neighbours spreads less around the neighbours' own mean than
+    # the field's values do around theirs: V's median under-read it by a quarter
+    from scipy import ndimage
+
+    rng = np.random.default_rng(5)
+    paper = ToneScale(0.0, 255.0)
+    blurred = (10.0 + ndimage.uniform_filter(rng.normal(0.0, 6.0, (256, 256)), 3)).astype(np.float32)
+    camera = np.clip(np.rint(6.0 + rng.normal(0.0, 2.0, (256, 256))), 0, 255).astype(np.uint8)
+    compressed = _jpeg(camera, quality=80)  # the blocks of a JPEG, as a browser saves it
+    for field in (blurred, compressed):
+        deviation = float(field.std())
+        sigma = dark_field_sigma(field, paper)
+        assert abs(sigma - deviation) < 0.2 * deviation, (sigma, deviation)

@@ -130,12 +130,15 @@ def dark_field_sigma(values: np.ndarray, scale: ToneScale) -> float:
 
     The pixels whose 8 neighbours' mean lies below ``DARK_TONE`` tones are the
     dark field; where they are at least ``MIN_DARK_SHARE`` of the plane, the
-    median of their neighbours' variance V, divided by its median for white
-    noise of deviation 1 (``_MEDIAN_V``), is the noise's variance. A JPEG
-    leaves little of a camera's noise at the highest frequencies, which
-    Immerkær's mask reads, and more at the scale of its 8 x 8 blocks, which
-    V reads: on black fields saved as JPEGs of quality 85, V was 4 to 6 times
-    Immerkær's sigma squared (``docs/study/noise-gate.md``). 0 without a dark field.
+    ``DARK_QUANTILE`` quantile of their neighbours' variance V, divided by the
+    same quantile for white noise of deviation 1 (``_QUANTILE_V``), is the
+    noise's variance. A JPEG leaves little of a camera's noise at the highest
+    frequencies, which Immerkær's mask reads, and more at the scale of its
+    8 x 8 blocks, which V reads. That noise is correlated between neighbours,
+    so V, the spread around the neighbours' own mean, reads less than the
+    field's variance, and heavy-tailed: the median of V read 0.6 of the field's
+    deviation on a JPEG of quality 80, the 90th percentile 0.97
+    (``docs/study/noise-gate.md``). 0 without a dark field.
 
     Rows are sampled with a stride that keeps at most ``_SAMPLES`` pixels (the
     same rows for the same shape), so that a huge plane costs no more.
@@ -162,7 +165,8 @@ def dark_field_sigma(values: np.ndarray, scale: ToneScale) -> float:
         total += mean.size
     if dark_pixels == 0 or dark_pixels < MIN_DARK_SHARE * total:
         return 0.0
-    return math.sqrt(float(np.median(np.concatenate(variances))) / _MEDIAN_V)
+    variance = float(np.quantile(np.concatenate(variances), DARK_QUANTILE))
+    return math.sqrt(variance / _QUANTILE_V)
 
 
 def _box(columns: np.ndarray) -> np.ndarray:
@@ -176,9 +180,14 @@ DARK_TONE = 20.0
 #: The share of a plane's pixels that must be dark for its dark field to be measured.
 MIN_DARK_SHARE = 0.05
 
-#: The median of V of Eq. 1 (8 neighbours) for white Gaussian noise of deviation 1:
-#: 8 V is a chi-square of 7 degrees of freedom, whose median is 6.3458.
-_MEDIAN_V = 6.345811 / 8.0
+#: The quantile of the dark field's V that :func:`dark_field_sigma` matches with white noise's:
+#: high enough to read the tail of a JPEG's correlated, heavy-tailed noise, low enough that a
+#: few edges among the dark pixels do not move it.
+DARK_QUANTILE = 0.9
+
+#: The ``DARK_QUANTILE`` quantile of V of Eq. 1 (8 neighbours) for white Gaussian noise of
+#: deviation 1: 8 V is a chi-square of 7 degrees of freedom, whose 90th percentile is 12.0170.
+_QUANTILE_V = 12.017037 / 8.0
 
 #: Pixels :func:`dark_field_sigma` reads at most (rows sampled with a stride beyond).
 _SAMPLES = 1 << 20
