@@ -78,8 +78,10 @@ def black_field_images(size: int = 512) -> dict[str, tuple[np.ndarray, np.ndarra
     """The black-field cases: name -> (image, mask of its black field).
 
     The black field is ``study.dark_mask``: flat near-black pixels (local mean
-    under 20 tones, weak gradient), the same definition on every case.
+    under 20 tones, weak gradient), the same definition on every case. The two
+    black-field JPEGs of ``hard_cases.hard_cases()`` come at their own size.
     """
+    from hard_cases import SIZE, hard_cases
     from study import dark_mask
     from study import images as study_images
 
@@ -90,6 +92,9 @@ def black_field_images(size: int = 512) -> dict[str, tuple[np.ndarray, np.ndarra
         "dark-field rings, noise 3, JPEG 85": jpeg(dark_field_rings(size, 3.0, seed=4)),
         "study dark-field": study_images(size)["dark-field"],
     }
+    hard = hard_cases(SIZE)
+    for name in ("batonnets-jpeg", "droplets-jpeg"):
+        cases[f"hard case {name}, {SIZE} x {SIZE}"] = hard[name]
     return {name: (image, dark_mask(image)) for name, image in cases.items()}
 
 
