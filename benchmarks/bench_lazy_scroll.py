@@ -30,6 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _qt_loop import process_events, wait_until
+
 PLANES, SIZE = 40, 2048
 STEP_MS = 33  # ~30 Hz
 HEARTBEAT_MS = 10
@@ -38,21 +41,11 @@ HERE = Path(__file__).resolve().parent
 
 
 def _events(seconds: float = 0.0) -> None:
-    from qtpy.QtWidgets import QApplication
-
-    end = time.perf_counter() + seconds
-    QApplication.processEvents()
-    while time.perf_counter() < end:
-        QApplication.processEvents()
-        time.sleep(0.001)
+    process_events(seconds, nap=0.001)
 
 
 def _wait(condition, timeout: float = 600.0) -> None:
-    end = time.perf_counter() + timeout
-    while not condition():
-        if time.perf_counter() > end:
-            raise TimeoutError("timed out")
-        _events(0.005)
+    wait_until(condition, timeout)
 
 
 def _memory() -> tuple[float, float]:

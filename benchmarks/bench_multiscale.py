@@ -32,6 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _qt_loop import process_events, wait_until
+
 SIDE = 8192
 #: Screen pixels per data pixel of the zoomed-in screenshot.
 ZOOMED_IN = 6.0
@@ -98,21 +101,11 @@ def _reset_peak() -> None:
 
 
 def _events(seconds: float = 0.0) -> None:
-    from qtpy.QtWidgets import QApplication
-
-    end = time.perf_counter() + seconds
-    QApplication.processEvents()
-    while time.perf_counter() < end:
-        QApplication.processEvents()
-        time.sleep(0.005)
+    process_events(seconds, nap=0.005)
 
 
 def _wait(condition, timeout: float = 600.0) -> None:
-    end = time.perf_counter() + timeout
-    while not condition():
-        if time.perf_counter() > end:
-            raise TimeoutError("the widget did not finish in time")
-        _events(0.005)
+    wait_until(condition, timeout)
 
 
 def _load() -> str:

@@ -35,26 +35,20 @@ import sys
 import tempfile
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _qt_loop import process_events, wait_until
+
 
 def _events(seconds: float = 0.0) -> None:
-    from qtpy.QtWidgets import QApplication
-
-    end = time.perf_counter() + seconds
-    QApplication.processEvents()
-    while time.perf_counter() < end:
-        QApplication.processEvents()
-        time.sleep(0.001)
+    process_events(seconds, nap=0.001)
 
 
 def _wait(condition, timeout: float = 300.0) -> None:
-    end = time.perf_counter() + timeout
-    while not condition():
-        if time.perf_counter() > end:
-            raise TimeoutError("the widget did not finish in time")
-        _events(0.001)
+    wait_until(condition, timeout)
 
 
 def _clear(viewer) -> None:
