@@ -121,3 +121,30 @@ def test_a_worker_that_never_started_releases_nothing_at_its_end():
     worker.finished.emit()
     assert collector.holds() == 1  # the other hold is still on
     other()
+
+
+def _full_collections() -> int:
+    return gc.get_stats()[2]["collections"]
+
+
+def test_a_full_collection_that_fell_due_during_a_hold_is_made_at_its_release():
+    gc.set_threshold(700, 10, 3)
+    release = hold_full_collections()
+    for _ in range(5):  # five collections of the middle generation: a full one falls due
+        gc.collect(1)
+    assert collector.full_collection_due() is False  # held: not due by the raised threshold
+    before = _full_collections()
+    release()
+    assert gc.get_threshold() == (700, 10, 3)
+    assert _full_collections() == before + 1  # made at the release, not at a later check
+    assert gc.get_count()[2] == 0
+
+
+def test_a_release_makes_no_full_collection_that_is_not_due():
+    gc.set_threshold(700, 10, 50)
+    gc.collect()
+    release = hold_full_collections()
+    gc.collect(1)
+    before = _full_collections()
+    release()
+    assert _full_collections() == before

@@ -14,10 +14,12 @@ While a run is on, :func:`hold_full_collections` raises the threshold of the
 oldest generation so that no full collection starts by itself. The two
 younger generations are collected as usual, so the short-lived cycles a run
 makes are still freed; only cycles among long-lived objects wait, at most as
-long as the run. When the last hold is released the threshold is restored and
-the collector's own schedule resumes: a collection that fell due during the
-run comes at its next check. Nothing is frozen, so nothing can leak. A
-threshold somebody else changed in the meantime is left as they set it.
+long as the run. When the last hold is released the threshold is restored,
+and a full collection that fell due during the run is made there and then:
+left to the collector's own schedule, it came at its next check, which in an
+idle viewer is the user's next action (the first step of a scroll froze for
+its 170 ms, ``docs/performance.md``). Nothing is frozen, so nothing can leak.
+A threshold somebody else changed in the meantime is left as they set it.
 
 Qt-free: the holds are plain function calls; the widget ties them to its runs.
 """
@@ -61,6 +63,7 @@ def hold_full_collections() -> Callable[[], None]:
     def release() -> None:
         nonlocal released
         global _holds, _restore
+        due = False
         with _lock:
             if released:
                 return
@@ -69,7 +72,10 @@ def hold_full_collections() -> Callable[[], None]:
             if _holds == 0 and _restore is not None:
                 if gc.get_threshold() == (_restore[0], _restore[1], HELD_THRESHOLD):
                     gc.set_threshold(*_restore)
+                    due = full_collection_due()
                 _restore = None
+        if due:
+            gc.collect()  # now, at the end of the run, not in the user's next action
 
     return release
 
@@ -84,6 +90,13 @@ def hold_while_running(worker) -> None:
     releases: list[Callable[[], None]] = []
     worker.started.connect(lambda: releases.append(hold_full_collections()))
     worker.finished.connect(lambda: releases and releases.pop()())
+
+
+def full_collection_due() -> bool:
+    """Whether Python's collector would start a full collection at its next check: more
+    collections of the middle generation since the last full one than the oldest
+    generation's threshold (``gc.get_count``, ``gc.get_threshold``)."""
+    return gc.get_count()[2] > gc.get_threshold()[2]
 
 
 def holds() -> int:
