@@ -30,6 +30,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import nox
+import nox.command
 from packaging.requirements import Requirement
 
 nox.needs_version = ">=2025.2.9"
@@ -213,23 +214,27 @@ def _matrix_session(session: nox.Session, name: str) -> None:
         session.error(f"napari_labyrinth imported from {versions['package']}, not the wheel")
 
     junit = run_dir / "junit.xml"
-    code = session.run(
-        "python",
-        "-m",
-        "pytest",
-        *TEST_DIRS,
-        "-p",
-        "no:cacheprovider",
-        "-q",
-        "--rootdir",
-        str(run_dir),
-        f"--junitxml={junit}",
-        "-o",
-        "junit_family=xunit2",
-        *session.posargs,
-        env=env,
-        success_codes=range(256),  # the summary line says what happened
-    )
+    # session.run returns True, not the exit code: a code other than 0 raises, and says it.
+    try:
+        session.run(
+            "python",
+            "-m",
+            "pytest",
+            *TEST_DIRS,
+            "-p",
+            "no:cacheprovider",
+            "-q",
+            "--rootdir",
+            str(run_dir),
+            f"--junitxml={junit}",
+            "-o",
+            "junit_family=xunit2",
+            *session.posargs,
+            env=env,
+        )
+        code = 0
+    except nox.command.CommandFailed as failure:  # the summary line says what happened
+        code = failure.return_code
     if junit.exists():
         counts, failed = _junit_outcomes(junit)
         result = f"{counts['passed']} passed, {counts['failed']} failed, "
@@ -248,7 +253,7 @@ def _matrix_session(session: nox.Session, name: str) -> None:
         print(f"FAILED {test}", flush=True)
     print(line, flush=True)
     if code != 0 or failed:
-        session.error(f"{len(failed)} failed")
+        session.error(f"pytest exited {code}: {len(failed)} failed")
 
 
 def _define(name: str, python: str):
