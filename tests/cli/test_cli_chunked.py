@@ -25,6 +25,7 @@ da = pytest.importorskip("dask.array")
 from napari_labyrinth import io as file_io
 from napari_labyrinth import labyrinth, labyrinth_stack, labyrinth_sweep
 from napari_labyrinth import lazy as lazy_images
+from napari_labyrinth.lazy import blocks as lazy_blocks
 from napari_labyrinth.cli import main
 from napari_labyrinth.io import open_image, read_image, write_image
 from napari_labyrinth.io import tiff as tiff_files
@@ -479,7 +480,15 @@ def test_a_second_ctrl_c_while_a_block_is_written_leaves_no_temporary(tmp_path, 
     # the first Ctrl-C had the run wait for the block being written; a second one ended
     # the wait (Thread.join), the temporary was removed, and the block's write made it again
     held = HeldChunkWrite(monkeypatch)
-    handled, twice = [], threading.Event()
+    handled, twice, waiting = [], threading.Event(), threading.Event()
+    wait = lazy_blocks.wait_through_interrupts
+
+    def waited(*args, **kwargs):
+        waiting.set()
+        return wait(*args, **kwargs)
+
+    # the second Ctrl-C comes while the run waits for the block, not as the first unwinds
+    monkeypatch.setattr(lazy_blocks, "wait_through_interrupts", waited)
 
     def handler(signum, frame):
         handled.append(signum)
@@ -487,7 +496,9 @@ def test_a_second_ctrl_c_while_a_block_is_written_leaves_no_temporary(tmp_path, 
 
     def interrupt_twice(main_thread):
         held.entered.wait(60)
-        for count in (1, 2):
+        for count, ready in ((1, held.entered), (2, waiting)):
+            ready.wait(60)
+            time.sleep(0.2)  # the main thread blocked in the wait
             signal.pthread_kill(main_thread, signal.SIGINT)
             while len(handled) < count:
                 time.sleep(0.005)
