@@ -44,17 +44,24 @@ def zoom_to_level(qtbot, viewer, layer, level: int) -> None:
     qtbot.waitUntil(lambda: layer.data_level == level, timeout=5000)
 
 
-def test_the_preview_renders_the_level_the_zoom_shows(qtbot, shown_viewer):
-    viewer = shown_viewer
-    levels = pyramid(noise((256, 256), np.uint16, seed=1))
-    cam = viewer.add_image(
+def add_placed_pyramid(viewer, seed: int, **kwargs):
+    """A 3-level 256² multiscale layer 'cam', scaled and translated; its levels and layer."""
+    levels = pyramid(noise((256, 256), np.uint16, seed=seed))
+    layer = viewer.add_image(
         levels,
         name="cam",
         multiscale=True,
         contrast_limits=LIMITS,
         scale=SCALE,
         translate=TRANSLATE,
+        **kwargs,
     )
+    return levels, layer
+
+
+def test_the_preview_renders_the_level_the_zoom_shows(qtbot, shown_viewer):
+    viewer = shown_viewer
+    levels, cam = add_placed_pyramid(viewer, seed=1)
     widget = open_widget(viewer)
     widget.image_layer.value = cam
     widget.fields["passes"].value = 1
@@ -89,14 +96,9 @@ def test_the_preview_renders_the_level_the_zoom_shows(qtbot, shown_viewer):
 
 def test_run_adds_a_multiscale_result_whose_full_level_is_the_api_s(qtbot, shown_viewer):
     viewer = shown_viewer
-    levels = pyramid(noise((256, 256), np.uint16, seed=2))
-    cam = viewer.add_image(
-        levels,
-        name="cam",
-        multiscale=True,
-        contrast_limits=LIMITS,
-        scale=SCALE,
-        translate=TRANSLATE,
+    levels, cam = add_placed_pyramid(
+        viewer,
+        seed=2,
         colormap="magma",
         metadata={"acquired": "today"},
     )
