@@ -183,43 +183,107 @@ def render_plane_file(
         plane = open_plane_bands(input)
         if plane is None:
             raise ImageFileError(input, "does not hold one 2-D grey plane to render band by band")
-        rows = plane_rows(plane, rendering.passes)
-        if tone_limits is None:
-            tone_limits = plane_tone_limits(plane, rows)
-        scale = resolve_tone_scale(np.empty(0, plane.dtype), tone_limits)
-        if rendering.noise_gate <= 0:
-            noise_sigma = 0.0
-        elif noise_sigma is None:
-            noise_sigma = plane_noise_sigma(plane, scale, rows)
-        elif not (isinstance(noise_sigma, (int, float)) and 0 <= noise_sigma < np.inf):
-            raise ValueError(f"noise_sigma must be a finite number >= 0, got {noise_sigma!r}")
-        height = plane.shape[0]
-        counts = np.zeros((rendering.passes, len(DIAGNOSTIC_FIELDS)), np.int64)
-        bands = (plane.read(start, min(height, start + rows)) for start in range(0, height, rows))
-        rendered = stream_plane(
-            bands,
-            plane.shape,
-            plane.dtype,
-            scale,
-            rendering,
-            seed,
-            rows=rows,
-            counts=counts,
+        stream = plane_stream(
+            plane, rendering, seed, tone_limits=tone_limits, noise_sigma=noise_sigma,
             workers=workers,
-            variance_floor=variance_floor(rendering.noise_gate, float(noise_sigma)),
-        )
+        )  # fmt: skip
+        height = plane.shape[0]
         with plane_bands_written(
-            output, plane.shape, plane.dtype, rows, overwrite=overwrite, metadata=metadata
+            output, plane.shape, plane.dtype, stream.rows, overwrite=overwrite, metadata=metadata
         ) as write:
-            for start, values in _aligned(rendered, rows, plane.shape, plane.dtype):
+            for start, values in stream.bands:
                 write(start, values)
                 if progress is not None:
                     progress(start + len(values), height)
     finally:
         release_files()
-    limits = (float(scale.low), float(scale.high))
-    diagnostics = counts.view(DIAGNOSTICS_DTYPE)[:, 0]
-    return StreamedRendering(output, limits, diagnostics, rows, float(noise_sigma))
+    return StreamedRendering(
+        output, stream.tone_limits, stream.diagnostics, stream.rows, stream.noise_sigma
+    )
+
+
+@dataclasses.dataclass
+class PlaneStream:
+    """A plane's rendering band by band, set up (:func:`plane_stream`) and run as its
+    :attr:`bands` are taken.
+
+    Attributes
+    ----------
+    rows : int
+        Rows of the result's bands (the last one shorter).
+    scale : ToneScale
+        The plane's tone scale (its tone limits).
+    noise_sigma : float
+        The plane's noise in tones, for the noise gate; 0 with the gate off.
+    counts : (passes, len(DIAGNOSTIC_FIELDS)) int64 array
+        The diagnostics, counted as the bands are rendered.
+    bands : iterator of (int, ndarray)
+        ``(first_row, values)``: the result's bands of :attr:`rows` rows, in order; the
+        array is reused for the next band.
+    """
+
+    rows: int
+    scale: ToneScale
+    noise_sigma: float
+    counts: np.ndarray
+    bands: Iterator[tuple[int, np.ndarray]]
+
+    @property
+    def tone_limits(self) -> tuple[float, float]:
+        """The values mapped to tones 0 and 255."""
+        return float(self.scale.low), float(self.scale.high)
+
+    @property
+    def diagnostics(self) -> np.ndarray:
+        """The counts of each pass so far, as :func:`napari_labyrinth.labyrinth` returns them."""
+        return self.counts.view(DIAGNOSTICS_DTYPE)[:, 0]
+
+
+def plane_stream(
+    plane: PlaneBands,
+    rendering: LabyrinthParameters,
+    seed: int,
+    *,
+    tone_limits: tuple[float, float] | None = None,
+    noise_sigma: float | None = None,
+    workers: int = 1,
+    row_multiple: int = 1,
+) -> PlaneStream:
+    """Set up the rendering of ``plane`` band by band with the parameters ``rendering``
+    (:func:`streamed_parameters`): its tone limits and noise found first, in passes over
+    its bands, when not given.
+
+    ``row_multiple``: the result's bands (all but the last) hold a multiple of it rows
+    (a pyramid's levels halve each band on its own). Raises as :func:`render_plane_file`.
+    """
+    rows = plane_rows(plane, rendering.passes)
+    written = written_rows(plane, rendering.passes, row_multiple)
+    if tone_limits is None:
+        tone_limits = plane_tone_limits(plane, rows)
+    scale = resolve_tone_scale(np.empty(0, plane.dtype), tone_limits)
+    if rendering.noise_gate <= 0:
+        noise_sigma = 0.0
+    elif noise_sigma is None:
+        noise_sigma = plane_noise_sigma(plane, scale, rows)
+    elif not (isinstance(noise_sigma, (int, float)) and 0 <= noise_sigma < np.inf):
+        raise ValueError(f"noise_sigma must be a finite number >= 0, got {noise_sigma!r}")
+    height = plane.shape[0]
+    counts = np.zeros((rendering.passes, len(DIAGNOSTIC_FIELDS)), np.int64)
+    read = (plane.read(start, min(height, start + rows)) for start in range(0, height, rows))
+    rendered = stream_plane(
+        read,
+        plane.shape,
+        plane.dtype,
+        scale,
+        rendering,
+        seed,
+        rows=rows,
+        counts=counts,
+        workers=workers,
+        variance_floor=variance_floor(rendering.noise_gate, float(noise_sigma)),
+    )
+    bands = _aligned(rendered, written, plane.shape, plane.dtype)
+    return PlaneStream(written, scale, float(noise_sigma), counts, bands)
 
 
 def plane_rows(plane: PlaneBands, passes: int) -> int:
@@ -231,6 +295,14 @@ def plane_rows(plane: PlaneBands, passes: int) -> int:
         If even one chunk of the file's rows needs more memory than the run may use.
     """
     return band_rows(plane, stream_bytes_per_row(plane.shape[1], plane.dtype, passes))
+
+
+def written_rows(plane: PlaneBands, passes: int, row_multiple: int = 1) -> int:
+    """Rows of the result's bands of ``plane`` rendered in ``passes`` passes: about those it
+    is read in (:func:`plane_rows`), a multiple of ``row_multiple``. Raises as
+    :func:`plane_rows`."""
+    multiple = max(1, int(row_multiple))
+    return max(multiple, plane_rows(plane, passes) // multiple * multiple)
 
 
 def _aligned(

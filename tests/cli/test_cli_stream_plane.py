@@ -226,3 +226,17 @@ def test_options_that_need_the_whole_plane_are_refused_before_reading(
     assert said in err and "tone limits" not in err
     assert band_reads == []
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.zarr"]
+
+
+def test_rows_picked_by_index_read_each_chunk_they_fall_in_once(tmp_path, band_reads):
+    image = smooth(np.uint16)
+    plane = plane_bands.open_plane_bands(written_input(tmp_path / "in.zarr", image))
+    rows = np.array([40, 3, 17, 18, 5, 500, 33])  # chunks 2, 0, 1, 1, 0, 31, 2 of 16 rows
+    np.testing.assert_array_equal(plane[rows], image[rows])
+    np.testing.assert_array_equal(plane[rows, 7:9], image[rows, 7:9])
+    assert band_reads == [ROWS] * 4 * 2  # chunks 0, 1, 2 and 31, once each per call
+    assert plane[np.array([], int)].shape == (0, SHAPE[1])
+    with pytest.raises(IndexError, match="of a plane of 512 rows"):
+        plane[np.array([512])]
+    with pytest.raises(TypeError, match="a slice or 1-D integers"):
+        plane[np.array([1.5])]

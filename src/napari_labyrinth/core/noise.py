@@ -151,7 +151,10 @@ def dark_field_sigma(values: np.ndarray, scale: ToneScale) -> float:
     dark_pixels = total = 0
     for start in range(1, height - 1, _BAND_ROWS * stride):
         centres = np.arange(start, min(height - 1, start + _BAND_ROWS * stride), stride)
-        window = [_rows(values, centres + dy, scale) for dy in (-1, 0, 1)]
+        # the rows above, at and below the centres, in one read (a band read from a file
+        # reads each chunk of rows it touches once)
+        window = np.split(_rows(values, np.concatenate([centres - 1, centres, centres + 1]),
+                                scale), 3)  # fmt: skip
         centre = window[1][:, 1:-1]
         # the 3 x 3 sums of the values and of their squares, less the centre's: Eq. 1's
         # sums over the 8 neighbours (in another order than the kernel's: an estimate)

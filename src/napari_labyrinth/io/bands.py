@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -42,8 +43,9 @@ class PlaneBands:
         multiple of them read each chunk once.
     """
 
-    def __init__(self, path: Path, shape, dtype, chunk_rows: int, read_rows):
+    def __init__(self, path: Path, shape, dtype, chunk_rows: int, read_rows, token=None):
         self.path = path
+        self._token = token
         self.shape = tuple(int(n) for n in shape)
         self.dtype = np.dtype(dtype).newbyteorder("=")
         self.ndim = 2
@@ -59,16 +61,30 @@ class PlaneBands:
         array of rows (what the noise gate samples a plane's rows with), columns a slice."""
         rows, columns = key if isinstance(key, tuple) else (key, slice(None))
         if not isinstance(rows, slice):
-            indices = np.asarray(rows)
-            if indices.dtype.kind not in "iu" or indices.ndim != 1:
-                raise TypeError(f"rows of a plane read band by band: a slice or 1-D integers, not {rows!r}")
-            picked = [self.read(int(row), int(row) + 1) for row in indices]
-            band = np.concatenate(picked) if picked else np.empty((0, self.shape[1]), self.dtype)
-            return band[:, columns]
+            return self._rows(rows)[:, columns]
         start, stop, _ = rows.indices(self.shape[0])
         return self.read(start, stop)[:, columns]
 
+    def _rows(self, rows) -> np.ndarray:
+        """The rows at the integers ``rows``, read a chunk of rows at a time: each chunk
+        they fall in once (a row alone costs its whole chunk in a compressed store)."""
+        indices = np.asarray(rows)
+        if indices.dtype.kind not in "iu" or indices.ndim != 1:
+            raise TypeError(f"rows of a plane read band by band: a slice or 1-D integers, not {rows!r}")
+        height = self.shape[0]
+        if indices.size and not (0 <= indices.min() and indices.max() < height):
+            raise IndexError(f"rows {rows!r} of a plane of {height} rows")
+        band = np.empty((indices.size, self.shape[1]), self.dtype)
+        chunks = indices // self.chunk_rows
+        for chunk in np.unique(chunks):
+            start = int(chunk) * self.chunk_rows
+            taken = chunks == chunk
+            band[taken] = self.read(start, min(height, start + self.chunk_rows))[indices[taken] - start]
+        return band
+
     def __dask_tokenize__(self):
+        if self._token is not None:
+            return self._token
         stat = os.stat(self.path)
         return ("napari-labyrinth-bands", str(self.path), stat.st_mtime_ns, stat.st_size)
 
@@ -119,6 +135,24 @@ def open_plane_bands(path: str | os.PathLike) -> PlaneBands | None:
     store = _cached_tiff(os.path.abspath(path), (stat.st_mtime_ns, stat.st_size))
     return PlaneBands(path, shape, dtype, store.chunks[0],
                       lambda start, stop: store[start:stop])  # fmt: skip
+
+
+def array_plane_bands(array, name: str) -> PlaneBands:
+    """A 2-D array in memory or on disk (numpy, dask, zarr) read by bands of rows as a
+    file's plane is: bands of a multiple of its chunks' rows read each chunk once.
+
+    ``name`` (a layer's) stands for the file's path in messages.
+    """
+    if len(array.shape) != 2:
+        raise ValueError(f"{name}: a plane read band by band is 2-D, not of shape {array.shape}")
+    chunks = getattr(array, "chunks", None)
+    first = chunks[0] if chunks else 1
+    chunk_rows = first[0] if isinstance(first, tuple) else first  # dask: each chunk's rows
+    return PlaneBands(
+        Path(name), array.shape, array.dtype, int(chunk_rows),
+        lambda start, stop: np.asarray(array[start:stop]),
+        token=("napari-labyrinth-array-bands", uuid.uuid4().hex),  # a fresh key: never cached
+    )  # fmt: skip
 
 
 def band_rows(plane: PlaneBands, bytes_per_row: int, limit: int | None = None) -> int:
