@@ -8,9 +8,10 @@ worker, never on the main thread: the plane on screen first, then its
 neighbours; a move of the slider re-prioritises what is left. Each plane
 rendered comes back to the main thread as the worker's ``yielded`` signal,
 where the layer is refreshed if it shows that plane (the worker touches no
-layer and no Qt object). The queue also owns the store's life: it is removed
-when the layer leaves the viewer, when the layer is given other data, when
-the viewer's window closes, and at interpreter exit.
+layer and no Qt object). The queue also owns the store's life
+(:class:`~.result_store.StoreKeeper`): it is removed when the layer leaves the
+viewer, when the layer is given other data, when the viewer's window closes,
+and at interpreter exit.
 """
 
 from __future__ import annotations
@@ -26,11 +27,9 @@ from qtpy.QtWidgets import QProgressBar, QWidget
 
 from ..widget.choices import visible_plane
 from ..widget.lazy_result import LazyResult
+from .result_store import StoreKeeper
 
 __all__ = ["PlaneQueue"]
-
-#: The queues whose store is still in use (each is kept until its layer goes).
-_LIVE: set[PlaneQueue] = set()
 
 
 class PlaneQueue(QObject):
@@ -78,11 +77,8 @@ class PlaneQueue(QObject):
         self._shown_rendered: bool | None = None  # whether the plane on screen is, as said
         self._released = False
         viewer.dims.events.current_step.connect(self._on_step)
-        viewer.layers.events.removed.connect(self._on_layer_removed)
-        layer.events.data.connect(self._on_data)
-        if window is not None:  # napari deletes its window once it has closed
-            window.destroyed.connect(self._on_window_destroyed)
-        _LIVE.add(self)
+        # the keeper holds this queue (its release) until the layer goes
+        self._keeper = StoreKeeper(viewer, layer, self._remove, window)
 
     @property
     def total(self) -> int:
@@ -137,18 +133,15 @@ class PlaneQueue(QObject):
 
     def release(self) -> None:
         """Stop, and remove the store (the layer is gone or shows other data)."""
+        self._keeper.release()
+
+    def _remove(self) -> None:
         if self._released:
             return
         self._released = True
         self.quit()
         self.background.remove()
-        for emitter, callback in (
-            (self.viewer.dims.events.current_step, self._on_step),
-            (self.viewer.layers.events.removed, self._on_layer_removed),
-            (self.layer.events.data, self._on_data),
-        ):
-            emitter.disconnect(callback)
-        _LIVE.discard(self)
+        self.viewer.dims.events.current_step.disconnect(self._on_step)
 
     # -- the plane on screen -----------------------------------------------------------------
 
@@ -212,21 +205,3 @@ class PlaneQueue(QObject):
                 self._say(text)
             except RuntimeError:  # the widget's Qt object is gone (its viewer closed)
                 pass
-
-    # -- the store's life --------------------------------------------------------------------
-
-    def _on_layer_removed(self, event) -> None:
-        if _unwrapped(event.value) is _unwrapped(self.layer):
-            self.release()
-
-    def _on_data(self, *_args) -> None:
-        if _unwrapped(self.layer).data is not self.background.data:
-            self.release()
-
-    def _on_window_destroyed(self, *_args) -> None:
-        self.release()  # the viewer has closed
-
-
-def _unwrapped(layer):
-    """The layer behind a proxy napari hands a plugin (never compared by identity)."""
-    return getattr(layer, "__wrapped__", layer)
