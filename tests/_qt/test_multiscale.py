@@ -3,6 +3,8 @@ adds a multiscale result whose full level is the API's result, bit for bit."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -118,6 +120,9 @@ def test_run_adds_a_multiscale_result_whose_full_level_is_the_api_s(qtbot, shown
     assert result.colormap.name == "magma"
     record = result.metadata[METADATA_KEY]
     assert record["source_level"] == 0 and record["levels"] == 3
+    assert record["band_by_band"] is True  # its levels are on disk
+    first_store = store_of(result)
+    assert sorted(path.name for path in first_store.iterdir()) == ["0", "1", "2"]
     assert widget.status.value.startswith("Added cam · labyrinth")
     qtbot.waitUntil(lambda: result.data_level == 2, timeout=5000)  # napari zooms through it
 
@@ -128,6 +133,15 @@ def test_run_adds_a_multiscale_result_whose_full_level_is_the_api_s(qtbot, shown
     full = api.labyrinth(levels[0], passes=1, tone_limits=LIMITS)
     np.testing.assert_array_equal(np.asarray(result.data[0]), full)
     np.testing.assert_array_equal(np.asarray(result.data[2]), pyramid(full)[2])
+    second_store = store_of(result)
+    assert not first_store.exists() and second_store.exists()  # the first one's removed
+    viewer.layers.remove(result)
+    assert not second_store.exists()
+
+
+def store_of(layer) -> Path:
+    """The directory of the store on disk a multiscale result's levels are in."""
+    return Path(str(layer.data[0].store.root)).parent
 
 
 def test_a_stack_of_passes_of_a_multiscale_stack_shows_its_last_pass(qtbot, shown_viewer):

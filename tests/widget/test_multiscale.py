@@ -41,9 +41,15 @@ def multiscale(levels, **fields) -> LayerSnapshot:
     return LayerSnapshot.of(levels, name="cam", multiscale=True, **fields)
 
 
+#: The outcomes of the runs: a result rendered band by band reads its store on disk, which
+#: is removed once its outcome is collected.
+_KEPT: list = []
+
+
 def run(plan):
     steps, outcome = drive(plan)
     assert steps == list(range(1, plan.total_steps + 1))
+    _KEPT.append(outcome)
     return result_layer(plan, outcome)
 
 
@@ -71,7 +77,14 @@ def test_a_preview_renders_the_level_on_screen_placed_over_the_layer():
         np.testing.assert_array_equal(data, expected)
 
 
-def test_a_run_renders_the_full_level_and_makes_the_lower_levels_from_the_result():
+@pytest.mark.parametrize(
+    "overrides, band_by_band",
+    [({"passes": 2}, True), ({"passes": 2, "scan": "checkerboard"}, False)],
+    ids=["band by band", "in memory"],
+)
+def test_a_run_renders_the_full_level_and_makes_the_lower_levels_from_the_result(
+    overrides, band_by_band
+):
     levels = pyramid(noise((256, 256), np.uint16, seed=3))
     snapshot = multiscale(
         levels,
@@ -81,21 +94,24 @@ def test_a_run_renders_the_full_level_and_makes_the_lower_levels_from_the_result
         axis_labels=("y", "x"),
         colormap="magma",
     )
-    plan = make_plan(snapshot, Choices(overrides={"passes": 2}, seed=5))
+    plan = make_plan(snapshot, Choices(overrides=overrides, seed=5))
     assert plan.data is levels[0] and plan.levels == 3
-    assert plan.total_steps == 2 + 2 + 1  # two passes, two lower levels, assembling
+    assert (plan.streamed is not None) is band_by_band
+    # in memory: two passes, two lower levels, assembling; band by band: one band
+    assert plan.total_steps == (1 if band_by_band else 2 + 2 + 1)
     data, kwargs = run(plan)
     assert kwargs["multiscale"] is True and kwargs["name"] == "cam · labyrinth"
-    full = api.labyrinth(levels[0], passes=2, seed=5, tone_limits=LIMITS)
+    full = api.labyrinth(levels[0], seed=5, tone_limits=LIMITS, **overrides)
     assert [level.shape for level in data] == [(256, 256), (128, 128), (64, 64)]
     np.testing.assert_array_equal(data[0], full)  # bit for bit
     np.testing.assert_array_equal(data[1], halved(full, (0, 1)))
-    np.testing.assert_array_equal(data[2], halved(data[1], (0, 1)))
+    np.testing.assert_array_equal(data[2], halved(np.asarray(data[1]), (0, 1)))
     np.testing.assert_array_equal(kwargs["scale"], (0.5, 0.5))  # of the full level
     np.testing.assert_array_equal(kwargs["translate"], (3.0, -4.0))
     assert kwargs["axis_labels"] == ("y", "x") and kwargs["colormap"] == "magma"
     record = kwargs["metadata"][METADATA_KEY]
     assert record["source_level"] == 0 and record["levels"] == 3
+    assert record["band_by_band"] is band_by_band
     assert record["source_shape"] == [256, 256] and record["source_layer"] == "cam"
     reproduced = getattr(api, record["function"])(levels[0], **record["arguments"])
     np.testing.assert_array_equal(data[0], reproduced)
@@ -194,8 +210,10 @@ def test_lower_levels_of_a_dask_level_equal_those_of_its_array():
 
 def test_a_run_cancelled_while_it_makes_the_lower_levels_returns_nothing():
     plan = make_plan(
-        multiscale(pyramid(noise((64, 64), np.uint16))), Choices(overrides={"passes": 1})
+        multiscale(pyramid(noise((64, 64), np.uint16))),
+        Choices(overrides={"passes": 1, "scan": "checkerboard"}),  # in memory
     )
+    assert plan.streamed is None
     last_pass = plan.total_steps - plan.levels
     _, outcome = drive(plan, on_step=lambda step: step == last_pass and plan.cancel.set())
     assert outcome is None

@@ -47,6 +47,7 @@ from .lifecycle import ClosesWithItsDock
 from .metrics_plot import MetricsPlot
 from .metrics_table import MetricsTable
 from .plane_queue import PlaneQueue
+from .result_store import StoreKeeper
 from .preview import Preview
 from .sweep_label import SweepLabel
 from .warm_up import PREPARING, WarmUp
@@ -518,6 +519,8 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
                 self._shown_plane = tuple(plan.visible_index)
                 QTimer.singleShot(0, self._reveal_metrics)
             self.status.value = f"Added {plan.description} ({outcome.seconds:.1f} s)"
+            if outcome.store is not None:  # a pyramid rendered band by band, on disk
+                StoreKeeper(self.viewer, layer, outcome.store.remove, main_window(self))
             if outcome.background is not None:  # a lazy input: the other planes still to render
                 self._render_in_background(plan, layer, outcome.background)
                 return

@@ -21,7 +21,7 @@ from typing import Any
 
 from ..api import MODES
 from ..core.colour import resolve_colour
-from ..core.parameters import SWEEPABLE
+from ..core.parameters import SWEEPABLE, LabyrinthParameters
 from ..core.planes import first_plane_index, step_count
 from ..core.presets import resolve_parameters, resolve_sweep
 from ..lazy import is_in_memory
@@ -29,6 +29,7 @@ from ..provenance import FUNCTIONS, call_arguments, input_record, rendering_reco
 from .choices import CURRENT_PLANE, Choices, LayerSnapshot
 from .layer_kwargs import METADATA_KEY, result_layer_kwargs
 from .multiscale import level_snapshot, shown_level
+from .streamed_level import band_count, level_bands, streams
 from .text import parse_sweep_values, plane_label, result_description, result_name, tone_limits
 
 __all__ = ["MODES", "Cancelled", "RenderPlan", "make_plan", "run_steps"]
@@ -87,6 +88,10 @@ class RenderPlan:
         made from the rendered full level (:func:`.multiscale.lower_levels`).
     layer_kwargs : dict
         Keyword arguments of the result layer (name, transforms, contrast, metadata).
+    streamed : LabyrinthParameters or None
+        The parameters of a run that renders a multiscale layer's full level band
+        by band into a pyramid on disk (:mod:`.streamed_level`); None for a run in
+        memory.
     """
 
     mode: str
@@ -101,6 +106,7 @@ class RenderPlan:
     layer_kwargs: dict[str, Any]
     metrics: bool = False
     levels: int = 1
+    streamed: LabyrinthParameters | None = None
     cancel: threading.Event = dataclasses.field(default_factory=threading.Event)
     abort_requested: Callable[[], bool] = lambda: False
 
@@ -179,6 +185,10 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     rendered_shape = source.shape[0 if source_index is None else len(source_index) :]
     total = run_steps(rendered_shape, snapshot.rgb, passes_per_run, stack_passes, colour)
     total += levels - 1  # one step per lower level of a multiscale result
+    streamed = None
+    if multiscale and streams(mode, bool(snapshot.rgb), snapshot.ndim, levels, resolved):
+        streamed = resolved
+        total = band_count(level_bands(source, snapshot.name), resolved, levels)
 
     label = plane_label(snapshot.axis_labels, visible_index) if partial else ""
     name = result_name(snapshot.name, mode, sweep[0] if sweep else "", label)
@@ -202,7 +212,7 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
         lazy=lazy,
     )
     if multiscale:
-        record.update(source_level=level, levels=levels)
+        record.update(source_level=level, levels=levels, band_by_band=streamed is not None)
     extra_axis = {"stack": "pass", "sweep": sweep[0] if sweep else None}.get(mode)
     layer_kwargs = result_layer_kwargs(
         snapshot, name, extra_axis, visible_index if partial else None
@@ -220,6 +230,7 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
         total_steps=total,
         metrics=mode == "stack" and choices.metrics,
         levels=levels,
+        streamed=streamed,
         layer_kwargs=layer_kwargs,
     )
 

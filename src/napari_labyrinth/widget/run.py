@@ -11,6 +11,10 @@ abort) stops it at the next pass, and closing it stops the API's threads at
 once. :func:`result_layer` turns the outcome into the data and keyword
 arguments of the result layer.
 
+A multiscale layer's full level is rendered band by band into a pyramid on
+disk (:mod:`~napari_labyrinth.widget.streamed_level`), in bounded memory,
+when its parameters allow.
+
 Lazy (dask-backed) input layers: only the plane the viewer shows is loaded
 and rendered by the run; it goes to a store on disk with room for the other
 planes, which render in the background afterwards (the outcome's
@@ -33,6 +37,8 @@ from .lazy_result import LazyResult
 from .multiscale import lower_levels
 from .pass_metrics import PassMetrics
 from .plan import Cancelled, RenderPlan
+from .pyramid_store import PyramidStore
+from .streamed_level import render_level
 
 __all__ = [
     "Failure",
@@ -55,7 +61,9 @@ class Outcome:
     """What a finished run hands back to the main thread.
 
     ``background``: for a lazy input, the result whose other planes are still to
-    render (``data`` is its store's array).
+    render (``data`` is its store's array). ``store``: for a multiscale layer's
+    full level rendered band by band, the store on disk its levels are (``data``,
+    its arrays), to keep while the layer shows them.
     """
 
     data: Any
@@ -63,6 +71,7 @@ class Outcome:
     metric_rows: list[dict[str, float]]
     seconds: float
     background: LazyResult | None = None
+    store: PyramidStore | None = None
 
 
 def _api_steps(
@@ -122,6 +131,8 @@ def _outcome(plan: RenderPlan) -> Generator[int, None, Outcome | None]:
     """:func:`render`'s steps, raising what goes wrong; a lazy result's store is removed
     when the run does not end with an outcome."""
     started = time.perf_counter()
+    if plan.streamed is not None:
+        return (yield from _streamed_outcome(plan, started))
     background = None
     try:
         data = np.asarray(plan.data)  # for lazy input: loads one plane only
@@ -143,6 +154,20 @@ def _outcome(plan: RenderPlan) -> Generator[int, None, Outcome | None]:
         raise
     rows = measure.rows if measure is not None else []
     return Outcome(result, diagnostics, rows, time.perf_counter() - started, background)
+
+
+def _streamed_outcome(plan: RenderPlan, started: float) -> Generator[int, None, Outcome]:
+    """:func:`render`'s steps for a multiscale layer's full level rendered band by band."""
+    level = yield from render_level(
+        plan.data, plan.source, plan.streamed, plan.arguments, plan.levels, plan.should_stop
+    )
+    if level is None:
+        raise Cancelled
+    if plan.should_stop():
+        level.store.remove()
+        raise Cancelled
+    seconds = time.perf_counter() - started
+    return Outcome(level.store.arrays, level.diagnostics, [], seconds, store=level.store)
 
 
 def _pyramid(plan: RenderPlan, full: Any) -> Generator[int, None, list[Any]]:
