@@ -43,6 +43,9 @@ _SIGMA_PER_RESIDUAL = math.sqrt(math.pi / 2.0) / 6.0
 #: Rows of the plane convolved at once by default: bounds the residuals' memory (float64).
 _BAND_ROWS = 256
 
+#: Bytes of float64 tones convolved at once, at most (fewer rows of a wide plane).
+_MEASURED_BYTES = 4 << 20
+
 
 def noise_sigma(plane: np.ndarray) -> float:
     """Immerkær's estimate of the deviation of the noise of a 2-D plane, in its values' units.
@@ -99,22 +102,33 @@ def _rows(values: np.ndarray, rows, scale: ToneScale | None) -> np.ndarray:
 
 def _residual_sigma(values, scale: ToneScale | None, band_rows: int = _BAND_ROWS) -> float:
     """Immerkær's sigma of ``values`` (or of their tones on ``scale``), read ``band_rows``
-    rows at a time (the result does not depend on it)."""
+    rows at a time and measured on ``_MEASURED_BYTES`` of float64 tones at a time (the
+    tones and the mask's sums of a whole band would take many times its memory); the
+    result depends on neither."""
     height, width = values.shape
     if height < 3 or width < 3:
         return 0.0
+    measured = _measured_rows(width)
     row_sums, count = [], 0
     for start in range(1, height - 1, band_rows):
         stop = min(height - 1, start + band_rows)
-        residual = _mask_residual(_rows(values, slice(start - 1, stop + 1), scale))
-        finite = np.isfinite(residual)
-        row_sums.extend(np.abs(np.where(finite, residual, 0.0)).sum(axis=1).tolist())
-        count += int(finite.sum())
+        band = values[start - 1 : stop + 1]  # one read
+        for first in range(1, band.shape[0] - 1, measured):
+            last = min(band.shape[0] - 1, first + measured)
+            residual = _mask_residual(_rows(band, slice(first - 1, last + 1), scale))
+            finite = np.isfinite(residual)
+            row_sums.extend(np.abs(np.where(finite, residual, 0.0)).sum(axis=1).tolist())
+            count += int(finite.sum())
     if count == 0:
         return 0.0
     # each row summed, then the rows' sums exactly (fsum): the same float64 for the same
     # values, whatever the bands of rows they were read in
     return math.fsum(row_sums) / count * _SIGMA_PER_RESIDUAL
+
+
+def _measured_rows(width: int) -> int:
+    """Rows of float64 tones measured at once: ``_MEASURED_BYTES`` of them, at most ``_BAND_ROWS``."""
+    return max(1, min(_BAND_ROWS, _MEASURED_BYTES // (8 * width)))
 
 
 def _mask_residual(rows: np.ndarray) -> np.ndarray:
@@ -141,16 +155,18 @@ def dark_field_sigma(values: np.ndarray, scale: ToneScale) -> float:
     (``docs/study/noise-gate.md``). 0 without a dark field.
 
     Rows are sampled with a stride that keeps at most ``_SAMPLES`` pixels (the
-    same rows for the same shape), so that a huge plane costs no more.
+    same rows for the same shape), so that a huge plane costs no more, and
+    measured a few at a time (``_measured_rows``).
     """
     height, width = values.shape
     if height < 3 or width < 3:
         return 0.0
     stride = max(1, math.ceil((height - 2) * (width - 2) / _SAMPLES))
+    rows = _measured_rows(width)
     variances = []
     dark_pixels = total = 0
-    for start in range(1, height - 1, _BAND_ROWS * stride):
-        centres = np.arange(start, min(height - 1, start + _BAND_ROWS * stride), stride)
+    for start in range(1, height - 1, rows * stride):
+        centres = np.arange(start, min(height - 1, start + rows * stride), stride)
         # the rows above, at and below the centres, in one read (a band read from a file
         # reads each chunk of rows it touches once)
         window = np.split(_rows(values, np.concatenate([centres - 1, centres, centres + 1]),
