@@ -110,9 +110,12 @@ def _residual_sigma(values, scale: ToneScale | None, band_rows: int = _BAND_ROWS
         return 0.0
     measured = _measured_rows(width)
     row_sums, count = [], 0
-    for start in range(1, height - 1, band_rows):
-        stop = min(height - 1, start + band_rows)
-        band = values[start - 1 : stop + 1]  # one read
+    kept = None  # the last two rows of the band before: the rows above the next band's first
+    for start in range(0, height, band_rows):
+        band = values[start : min(height, start + band_rows)]  # each row read once
+        if kept is not None:
+            band = np.concatenate([kept, band])
+        kept = band[-2:]
         for first in range(1, band.shape[0] - 1, measured):
             last = min(band.shape[0] - 1, first + measured)
             residual = _mask_residual(_rows(band, slice(first - 1, last + 1), scale))
