@@ -61,6 +61,18 @@ def test_odd_sides_repeat_their_last_row_and_column():
     assert half[0, 2] == round((image[0, 4] + image[1, 4]) / 2)
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.int8, np.uint16, np.int16, np.uint32, np.int32])
+def test_integer_halving_rounds_half_to_even_as_the_float_mean_does(dtype):
+    info = np.iinfo(dtype)
+    image = RNG.integers(info.min, info.max, (37, 52), endpoint=True, dtype=dtype)
+    image[:4, :4] = [[0, 1, 2, 3], [1, 2, 1, 0], [info.max] * 4, [info.max - 1] * 4]
+    # the float mean, rounded half to even (every block of the image: its sides are made even)
+    blocks = np.pad(image, ((0, 1), (0, 0)), mode="edge").reshape(19, 2, 26, 2)
+    expected = np.rint(blocks.mean(axis=(1, 3), dtype=np.float64)).astype(dtype)
+    np.testing.assert_array_equal(halved(image, (0, 1)), expected)
+    assert halved(image, (0, 1))[0, 0] == 1 and halved(image, (0, 1))[0, 1] == 2  # 1.0, 1.5
+
+
 def test_only_the_named_axes_are_halved():
     image = RNG.integers(0, 100, (3, 8, 6), dtype=np.uint16)
     half = halved(image, (-2, -1))

@@ -61,6 +61,8 @@ def _halved_whole(image: np.ndarray) -> np.ndarray:
     """``image`` halved along every axis (see ``halved``)."""
     pad = [(0, size % 2) for size in image.shape]
     padded = np.pad(image, pad, mode="edge") if any(after for _, after in pad) else image
+    if padded.ndim == 2 and padded.dtype.kind in "iu" and padded.dtype.itemsize <= 4:
+        return _halved_integers(padded)
     blocks = padded.reshape([part for size in padded.shape for part in (size // 2, 2)])
     mean = blocks.mean(axis=tuple(range(1, blocks.ndim, 2)), dtype=np.float64)
     if np.issubdtype(image.dtype, np.integer):
@@ -69,3 +71,19 @@ def _halved_whole(image: np.ndarray) -> np.ndarray:
     elif image.dtype == np.bool_:
         mean = mean >= 0.5
     return mean.astype(image.dtype)
+
+
+def _halved_integers(image: np.ndarray) -> np.ndarray:
+    """A 2-D integer ``image`` of even sides halved: each 2 x 2 block's mean rounded half to
+    even, as ``np.rint`` of the float mean, in integers (several times faster).
+
+    The block's sum ``s`` is exact in int64; ``s / 4`` is ``q + r / 4`` with ``q = s >> 2``
+    (floor) and ``r = s & 3``, which rounds to ``q`` for r < 2, to ``q + 1`` for r > 2, and
+    for r = 2 (a half) to the even one of ``q`` and ``q + 1``.
+    """
+    total = np.add(image[0::2, 0::2], image[1::2, 0::2], dtype=np.int64)
+    total += image[0::2, 1::2]
+    total += image[1::2, 1::2]
+    quotient, remainder = total >> 2, total & 3
+    quotient += (remainder > 2) | ((remainder == 2) & (quotient & 1 == 1))
+    return quotient.astype(image.dtype)
