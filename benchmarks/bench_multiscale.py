@@ -1,9 +1,10 @@
 """Run on a multiscale layer from the widget: a 3-level 8192² uint16 OME-Zarr in a real viewer.
 
-Run under Xvfb: ``xvfb-run -a python benchmarks/bench_multiscale.py [--out DIR] [--runs N]``.
+Run under Xvfb: ``xvfb-run -a python benchmarks/bench_multiscale.py [--out DIR] [--runs N]
+[--side 8192] [--ways napari-ome-zarr,add_image]``.
 Prints figures; asserts nothing; the machine's load is printed before and after.
 
-The OME-Zarr (8192², 4096², 2048² uint16, written by ``ome_zarr.writer`` from a dask array,
+The OME-Zarr (8192², 4096², 2048² uint16 by default, ``--side`` the full level's; written by ``ome_zarr.writer`` from a dask array,
 in a process of its own so that its memory does not count here) is opened in a viewer on
 screen two ways, interleaved run by run:
 
@@ -35,6 +36,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _qt_loop import process_events, wait_until
 
+#: The full level's side, by default.
 SIDE = 8192
 #: Screen pixels per data pixel of the zoomed-in screenshot.
 ZOOMED_IN = 6.0
@@ -42,7 +44,7 @@ ZOOMED_IN = 6.0
 IDLE_SECONDS = 5.0
 
 
-def _write(path: str) -> None:
+def _write(path: str, side: int) -> None:
     """Write the OME-Zarr: smooth structures and noise, block by block (bounded memory)."""
     import dask.array as da
     import zarr
@@ -51,14 +53,15 @@ def _write(path: str) -> None:
     def block(block_info=None):
         (y0, y1), (x0, x1) = block_info[None]["array-location"]
         y, x = np.mgrid[y0:y1, x0:x1].astype(np.float32)
-        rng = np.random.default_rng(y0 * SIDE + x0)
+        rng = np.random.default_rng(y0 * side + x0)
         cells = np.sin(x / 97.0) * np.cos(y / 131.0) + 0.5 * np.sin((x + 2 * y) / 611.0)
         values = 30000 + 12000 * cells + rng.normal(0, 1500, cells.shape)
         return np.clip(values, 0, 65535).astype(np.uint16)
 
-    image = da.map_blocks(block, chunks=((1024,) * (SIDE // 1024),) * 2, dtype=np.uint16)
+    chunks = (1024,) * (side // 1024) + ((side % 1024,) if side % 1024 else ())
+    image = da.map_blocks(block, chunks=(chunks, chunks), dtype=np.uint16)
     group = zarr.open_group(path, mode="w")
-    write_image(image, group, scale_factors=(2, 4), axes="yx", name="cam8192")
+    write_image(image, group, scale_factors=(2, 4), axes="yx", name=f"cam{side}")
 
 
 def _rss() -> tuple[float, float]:
@@ -123,7 +126,7 @@ def _counting(level):
     return level.map_blocks(count, dtype=level.dtype), read
 
 
-def _open(viewer, path: str, way: str):
+def _open(viewer, path: str, way: str, side: int):
     """The OME-Zarr as a multiscale layer, opened ``way``; the chunks its full level reads."""
     if way == "napari-ome-zarr":
         (layer,) = viewer.open(path, plugin="napari-ome-zarr")
@@ -134,7 +137,7 @@ def _open(viewer, path: str, way: str):
     datasets = zarr.open_group(path, mode="r").attrs["ome"]["multiscales"][0]["datasets"]
     levels = [da.from_zarr(f"{path}/{dataset['path']}") for dataset in datasets]
     levels[0], read = _counting(levels[0])
-    return viewer.add_image(levels, multiscale=True, name="cam8192"), read
+    return viewer.add_image(levels, multiscale=True, name=f"cam{side}"), read
 
 
 def _busiest(before: dict[str, float], count: int = 4) -> str:
@@ -175,17 +178,17 @@ def _run(viewer, widget, layer) -> dict:
     }
 
 
-def _screenshots(viewer, layer, result, out: Path, way: str) -> list[Path]:
+def _screenshots(viewer, layer, result, out: Path, way: str, side: int) -> list[Path]:
     layer.visible = False
     viewer.reset_view()
     _events(1.0)
-    zoomed_out = out / f"multiscale-{way}-zoomed-out.png"
+    zoomed_out = out / f"multiscale-{side}-{way}-zoomed-out.png"
     viewer.screenshot(str(zoomed_out), canvas_only=True)
     level_out = result.data_level
-    viewer.camera.center = (SIDE / 2, SIDE / 2)
+    viewer.camera.center = (side / 2, side / 2)
     viewer.camera.zoom = ZOOMED_IN
     _events(1.5)
-    zoomed_in = out / f"multiscale-{way}-zoomed-in.png"
+    zoomed_in = out / f"multiscale-{side}-{way}-zoomed-in.png"
     viewer.screenshot(str(zoomed_in), canvas_only=True)
     print(
         f"  screenshots: {zoomed_out} (napari shows level {level_out}), "
@@ -200,20 +203,25 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=None, help="folder of the zarr and the screenshots")
     parser.add_argument("--runs", type=int, default=2, help="runs of each way (best taken)")
+    parser.add_argument("--side", type=int, default=SIDE, help="the full level's side")
+    parser.add_argument("--ways", default="napari-ome-zarr,add_image", help="ways of opening it")
     parser.add_argument("--write", help=argparse.SUPPRESS)  # the child that writes the zarr
     arguments = parser.parse_args()
+    side = arguments.side
     if arguments.write:
-        _write(arguments.write)
+        _write(arguments.write, side)
         return
 
     os.environ.setdefault("NAPARI_LABYRINTH_NO_WARMUP", "1")
     out = Path(arguments.out or tempfile.mkdtemp(prefix="bench-multiscale-"))
     out.mkdir(parents=True, exist_ok=True)
-    path = str(out / "cam8192.ome.zarr")
+    path = str(out / f"cam{side}.ome.zarr")
     print(_load(), f"{os.cpu_count()} cores")
     if not Path(path).exists():
         started = time.perf_counter()
-        subprocess.run([sys.executable, __file__, "--write", path], check=True)
+        subprocess.run(
+            [sys.executable, __file__, "--write", path, "--side", str(side)], check=True
+        )
         print(f"wrote {path} in {time.perf_counter() - started:.1f} s")
 
     import napari
@@ -230,10 +238,10 @@ def main() -> None:
         _events(0.05)
     print(f"viewer and widget open: RSS {_rss()[0]:.0f} MB ({_load()})")
 
-    figures: dict[str, list[dict]] = {"napari-ome-zarr": [], "add_image": []}
+    figures: dict[str, list[dict]] = {way: [] for way in arguments.ways.split(",")}
     for round_number in range(arguments.runs):
         for way, rows in figures.items():
-            layer, read = _open(viewer, path, way)
+            layer, read = _open(viewer, path, way, side)
             viewer.reset_view()
             _events(1.0)
             shapes = [tuple(level.shape) for level in layer.data]
@@ -247,13 +255,14 @@ def main() -> None:
             print(
                 f"round {round_number + 1} {way:16} levels {shapes}: wall {figure['wall']:.1f} s,"
                 f" worker {figure['worker']:.1f} s, CPU {figure['cpu']:.1f} s, steps {figure['steps']}, RSS before"
-                f" {figure['rss']:.0f} MB, peak {figure['peak']:.0f} MB, full level read:"
+                f" {figure['rss']:.0f} MB, peak {figure['peak']:.0f} MB"
+                f" (+{figure['peak'] - figure['rss']:.0f} MB), full level read:"
                 f" {figure['chunks']}; napari's dask cache {figure['dask cache']:.0f} MB;"
                 f" result levels {figure['result']} ({_load()})\n  busiest threads in the run:"
                 f" {figure['threads']}\n  in {IDLE_SECONDS:.0f} s before it: {figure['idle']}"
             )
             if round_number == arguments.runs - 1:
-                _screenshots(viewer, layer, result, out, way)
+                _screenshots(viewer, layer, result, out, way, side)
             for other in list(viewer.layers):
                 viewer.layers.remove(other)
                 _events(0.05)
@@ -262,7 +271,9 @@ def main() -> None:
         best = min(rows, key=lambda row: row["wall"])
         print(
             f"  {way:16} wall {best['wall']:.1f} s, worker {best['worker']:.1f} s,"
-            f" peak RSS {max(row['peak'] for row in rows):.0f} MB (highest of the runs)"
+            f" peak RSS {max(row['peak'] for row in rows):.0f} MB (highest of the runs),"
+            f" at most {max(row['peak'] - row['rss'] for row in rows):.0f} MB over the RSS"
+            " before the run"
         )
     print(_load())
     viewer.close()
