@@ -270,14 +270,16 @@ def plane_stream(
     height = plane.shape[0]
     counts = np.zeros((rendering.passes, len(DIAGNOSTIC_FIELDS)), np.int64)
     read = (plane.read(start, min(height, start + rows)) for start in range(0, height, rows))
+    step = rendered_rows(plane, rendering.passes, rows)
+    pieces = (band[first : first + step] for band in read for first in range(0, len(band), step))
     rendered = stream_plane(
-        read,
+        pieces,
         plane.shape,
         plane.dtype,
         scale,
         rendering,
         seed,
-        rows=rows,
+        rows=step,
         counts=counts,
         workers=workers,
         variance_floor=variance_floor(rendering.noise_gate, float(noise_sigma)),
@@ -295,6 +297,19 @@ def plane_rows(plane: PlaneBands, passes: int) -> int:
         If even one chunk of the file's rows needs more memory than the run may use.
     """
     return band_rows(plane, stream_bytes_per_row(plane.shape[1], plane.dtype, passes))
+
+
+def rendered_rows(plane: PlaneBands, passes: int, rows: int) -> int:
+    """Rows the passes take at a time from bands of ``rows`` rows read: those whose tones
+    and buffers (``stream_bytes_per_row``) fit in ``STREAM_BYTES``, at most ``rows``. A
+    band read whole (a file's chunks of rows) is rendered in pieces of them."""
+    per_row = stream_bytes_per_row(plane.shape[1], plane.dtype, passes)
+    return max(1, min(rows, STREAM_BYTES // per_row))
+
+
+#: Bytes of the tones and buffers of the passes of a plane rendered band by band, at most
+#: (a band of fewer rows of a wide plane); the rows read at a time are bounded apart.
+STREAM_BYTES = 256 << 20
 
 
 def written_rows(plane: PlaneBands, passes: int, row_multiple: int = 1) -> int:

@@ -246,3 +246,20 @@ def test_an_array_is_read_by_bands_of_its_chunks_rows():
     assert array_plane_bands(stored, "a").chunk_rows == 4
     with pytest.raises(ValueError, match="2-D"):
         array_plane_bands(np.zeros((2, 4, 4)), "a")
+
+
+def test_bands_read_whole_are_rendered_in_pieces_of_a_wide_plane_bit_for_bit(
+    monkeypatch, small_budget, stores
+):
+    from napari_labyrinth import streaming
+
+    image = smooth(np.uint16, seed=6)
+    plan = make_plan(snapshot_of(image), Choices(seed=2))
+    plane = array_plane_bands(image, "cam")
+    per_row = streaming.stream_bytes_per_row(SHAPE[1], image.dtype, plan.streamed.passes)
+    monkeypatch.setattr(streaming, "STREAM_BYTES", 7 * per_row)  # 7 rows a piece
+    rows = band_rows(plane, plan.streamed, plan.levels)
+    assert streaming.rendered_rows(plane, plan.streamed.passes, rows) == 7 < rows
+    _, outcome = drive(plan)
+    data, _ = result_layer(plan, outcome)
+    np.testing.assert_array_equal(data[0][...], in_memory(image, **plan.arguments))
