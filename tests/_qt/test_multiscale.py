@@ -163,3 +163,45 @@ def test_a_stack_of_passes_of_a_multiscale_stack_shows_its_last_pass(qtbot, show
     ]
     assert viewer.dims.current_step[0] == 2  # the last pass
     assert len(result.metadata[METADATA_KEY]["metrics"]) == 2  # measured on the plane on screen
+
+
+def test_the_preview_zoomed_in_renders_the_part_on_screen_and_follows_a_pan(qtbot, shown_viewer):
+    viewer = shown_viewer
+    levels = pyramid(noise((2048, 2048), np.uint16, seed=4), count=2)
+    cam = viewer.add_image(
+        levels, name="cam", multiscale=True, contrast_limits=LIMITS, scale=SCALE,
+        translate=TRANSLATE,
+    )  # fmt: skip
+    widget = open_widget(viewer)
+    widget.image_layer.value = cam
+    widget.fields["passes"].value = 1
+    viewer.camera.zoom = 4.0 / SCALE[0]  # 4 screen pixels a data pixel: level 0
+    viewer.camera.center = (TRANSLATE[0] + 300 * SCALE[0], TRANSLATE[1] + 400 * SCALE[1])
+    qtbot.waitUntil(lambda: cam.data_level == 0, timeout=5000)
+    widget.preview_toggle.value = True
+
+    def shown_part():
+        qtbot.waitUntil(
+            lambda: widget.preview.layer is not None and not widget.preview.busy,
+            timeout=RUN_TIMEOUT_MS,
+        )
+        preview = widget.preview.layer
+        (top, bottom), (left, right) = preview.metadata[METADATA_KEY]["source_region"]
+        part = levels[0][top:bottom, left:right]
+        np.testing.assert_array_equal(preview.data, labyrinth(part, passes=1, tone_limits=LIMITS))
+        np.testing.assert_array_equal(
+            preview.translate, np.add(TRANSLATE, np.multiply(SCALE, (top, left)))
+        )
+        return (top, bottom), (left, right)
+
+    (top, bottom), (left, right) = shown_part()
+    assert (bottom - top) * (right - left) < 2048 * 2048 / 4  # a part, not the level
+    assert top <= 300 < bottom and left <= 400 < right  # around the centre of the view
+    viewer.camera.center = (TRANSLATE[0] + 1700 * SCALE[0], TRANSLATE[1] + 1500 * SCALE[1])
+    qtbot.waitUntil(
+        lambda: widget.preview.layer.metadata[METADATA_KEY]["source_region"][0][0] > bottom,
+        timeout=RUN_TIMEOUT_MS,
+    )
+    (top, bottom), (left, right) = shown_part()
+    assert top <= 1700 < bottom and left <= 1500 < right
+    widget.preview_toggle.value = False

@@ -15,6 +15,8 @@ from napari_labyrinth.io._pyramid import halved
 from napari_labyrinth.widget.choices import CURRENT_PLANE, Choices, LayerSnapshot, preview_choices
 from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
 from napari_labyrinth.widget.multiscale import (
+    PREVIEW_GRID,
+    PREVIEW_MARGIN,
     downsample_factors,
     level_snapshot,
     lower_levels,
@@ -217,3 +219,52 @@ def test_a_run_cancelled_while_it_makes_the_lower_levels_returns_nothing():
     last_pass = plan.total_steps - plan.levels
     _, outcome = drive(plan, on_step=lambda step: step == last_pass and plan.cancel.set())
     assert outcome is None
+
+
+def test_a_preview_renders_the_part_of_the_level_on_screen_out_to_the_grid():
+    levels = pyramid(noise((1024, 1280), np.uint16, seed=8))
+    fields = {"scale": (0.5, 0.25), "translate": (10.0, 20.0)}
+    # napari shows rows 300-459 and columns 700-899 of level 0
+    snapshot = multiscale(levels, data_level=0, shown_region=((300, 460), (700, 900)), **fields)
+    plan = make_plan(snapshot, preview_choices(Choices(overrides={"passes": 1})))
+    # with PREVIEW_MARGIN around it, out to multiples of PREVIEW_GRID
+    assert (PREVIEW_MARGIN, PREVIEW_GRID) == (32, 256)
+    assert plan.source_region == [[256, 512], [512, 1024]]
+    assert plan.data.shape == (256, 512)
+    np.testing.assert_array_equal(plan.layer_kwargs["translate"], (10 + 0.5 * 256, 20 + 0.25 * 512))
+    np.testing.assert_array_equal(plan.layer_kwargs["scale"], (0.5, 0.25))
+    data, _ = run(plan)
+    part = levels[0][256:512, 512:1024]
+    np.testing.assert_array_equal(data, api.labyrinth(part, passes=1, tone_limits=LIMITS))
+
+    # on another level, the region is of that level
+    snapshot = multiscale(levels, data_level=1, shown_region=((0, 100), (600, 640)), **fields)
+    plan = make_plan(snapshot, preview_choices(Choices(overrides={"passes": 1})))
+    assert plan.source_region == [[0, 256], [512, 640]] and plan.data.shape == (256, 128)
+    np.testing.assert_array_equal(plan.layer_kwargs["translate"], (10.0, 20 + 0.5 * 512))
+
+
+@pytest.mark.parametrize(
+    "fields",
+    [
+        {"shown_region": None},  # not known (the viewer shows 3-D)
+        {"shown_region": ((0, 1000), (10, 1200))},  # the whole level, with the margin
+        {"shown_region": ((2000, 2100), (0, 100))},  # off the level: nothing of it on screen
+        {"shown_region": ((300, 460), (700, 900)), "rotate": np.array([[0.0, -1.0], [1.0, 0.0]])},
+        {"shown_region": ((300, 460), (700, 900)), "shear": np.array([0.5])},
+    ],
+    ids=["no region", "whole level", "off the level", "rotated", "sheared"],
+)
+def test_a_preview_renders_the_whole_level_when_the_part_cannot_be_placed(fields):
+    levels = pyramid(noise((1024, 1280), np.uint16, seed=8), count=2)
+    plan = make_plan(multiscale(levels, **fields), preview_choices(Choices()))
+    assert plan.source_region is None and plan.data is levels[0]
+
+
+def test_a_run_renders_the_full_level_whatever_part_is_on_screen():
+    levels = pyramid(noise((512, 512), np.uint16, seed=8), count=2)
+    snapshot = multiscale(levels, data_level=0, shown_region=((0, 10), (0, 10)))
+    plan = make_plan(snapshot, Choices())
+    assert plan.source_region is None and plan.data is levels[0]
+    shown_on_level_1 = multiscale(levels, data_level=1, shown_region=((0, 10), (0, 10)))
+    assert level_snapshot(shown_on_level_1, 0).shown_region is None  # of level 1, not 0

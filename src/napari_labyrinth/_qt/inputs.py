@@ -14,9 +14,13 @@ from ..widget.choices import ALL_PLANES, CURRENT_PLANE, LayerSnapshot, visible_p
 from ..widget.text import tone_limit_text, tone_limits
 
 
-def layer_snapshot(layer: Image | None, world_point: Sequence[float]) -> LayerSnapshot | None:
+def layer_snapshot(
+    layer: Image | None, world_point: Sequence[float], planes_on_screen: bool = True
+) -> LayerSnapshot | None:
     """The layer as plain values, with the plane shown at ``world_point`` (of a multiscale
-    layer: its index in the full level, and the level shown); None without one."""
+    layer: its index in the full level, the level shown and, when the viewer shows planes
+    of the last two axes (``planes_on_screen``), the part of it on screen); None without
+    one."""
     if layer is None:
         return None
     n_leading = layer.ndim - 2
@@ -46,7 +50,16 @@ def layer_snapshot(layer: Image | None, world_point: Sequence[float]) -> LayerSn
         colormap=layer.colormap,
         visible_index=visible_index,
         data_level=int(layer.data_level),
+        shown_region=_shown_region(layer) if layer.multiscale and planes_on_screen else None,
     )
+
+
+def _shown_region(layer: Image) -> tuple[tuple[int, int], tuple[int, int]]:
+    """The rows and columns of a multiscale layer's shown level that napari loads (its
+    corner pixels, inclusive, of the last two axes of the layer)."""
+    corners = np.asarray(layer.corner_pixels, dtype=int)[:, -2:]
+    (top, left), (bottom, right) = corners
+    return (int(top), int(bottom) + 1), (int(left), int(right) + 1)
 
 
 class InputSection:
@@ -162,4 +175,6 @@ class InputSection:
 
     def snapshot(self) -> LayerSnapshot | None:
         """The chosen layer as plain values (None without one)."""
-        return layer_snapshot(self.image_layer.value, self.viewer.dims.point)
+        dims = self.viewer.dims
+        planes = dims.ndisplay == 2 and tuple(dims.displayed) == (dims.ndim - 2, dims.ndim - 1)
+        return layer_snapshot(self.image_layer.value, dims.point, planes)

@@ -1,7 +1,8 @@
 """Live preview: the plane on screen re-rendered into one layer as the parameters change.
 
 While the preview is on, every change of a parameter, of the input, of the
-plane on screen or of the zoom (a multiscale input's level on screen) restarts a short timer (debounce); when it fires, the plane
+plane on screen or of the zoom and the view (a multiscale input's level on screen, and the
+part of it on screen) restarts a short timer (debounce); when it fires, the plane
 on screen is rendered in a worker. A newer request cancels the render in
 flight, and a render that is not the newest is never shown: each one carries
 a generation number, and only the newest generation updates the layer. The
@@ -89,7 +90,9 @@ class Preview:
         self._timer.setSingleShot(True)
         self._timer.setInterval(DEBOUNCE_MS)
         self._timer.timeout.connect(self._render)
-        viewer.camera.events.zoom.connect(self.request)  # a multiscale input's level
+        # a multiscale input's level, and the part of it on screen
+        viewer.camera.events.zoom.connect(self.request)
+        viewer.camera.events.center.connect(self.request)
 
     @property
     def busy(self) -> bool:
@@ -128,7 +131,7 @@ class Preview:
             self._report(f"Preview: {exc}")
             return
         key = (id(snapshot.data), snapshot.visible_index, snapshot.data_level)
-        key += (repr(plan.arguments),)
+        key += (repr(plan.arguments), repr(plan.source_region))
         if key == self._key and self.layer is not None:
             return  # nothing that the preview shows changed
         self._key = key
@@ -214,3 +217,4 @@ class Preview:
         """Stop for good (the widget is closing)."""
         self.set_enabled(False)
         self.viewer.camera.events.zoom.disconnect(self.request)
+        self.viewer.camera.events.center.disconnect(self.request)

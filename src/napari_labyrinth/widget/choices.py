@@ -65,6 +65,9 @@ class LayerSnapshot:
         level), of the plane the viewer shows.
     data_level : int
         The level of a multiscale layer the viewer shows (0, the full level, otherwise).
+    shown_region : ((int, int), (int, int)) or None
+        The rows and the columns (start, stop) of that level on screen, as napari
+        loads them (its corner pixels); None when not known (the whole level).
     """
 
     name: str
@@ -87,6 +90,7 @@ class LayerSnapshot:
     colormap: Any
     visible_index: tuple[int, ...]
     data_level: int = 0
+    shown_region: tuple[tuple[int, int], tuple[int, int]] | None = None
 
     @classmethod
     def of(cls, data: Any, name: str = "image", rgb: bool = False, **fields: Any) -> LayerSnapshot:

@@ -7,7 +7,9 @@ the level's downsampling factor (the full level's shape over the level's).
 
 - A preview renders the level on screen (:func:`shown_level`), placed over
   the layer as napari places it: the layer's scale times the level's factor,
-  its translate kept (:func:`level_snapshot`).
+  its translate kept (:func:`level_snapshot`); of that level, only the part on
+  screen, as napari loads it, and a margin (:func:`shown_part`), so that a
+  preview zoomed in on a large image costs what the screen shows.
 - Run renders the full level, and the result is a multiscale layer of as many
   levels as the input, each lower level the 2 × 2 mean of the one above
   (:func:`lower_levels`, the package's own pyramid code), so that every zoom
@@ -29,12 +31,22 @@ from ..io._pyramid import halved, halved_shape
 from .choices import LayerSnapshot
 
 __all__ = [
+    "PREVIEW_GRID",
+    "PREVIEW_MARGIN",
     "downsample_factors",
     "level_snapshot",
     "lower_levels",
     "pyramid_axes",
     "shown_level",
+    "shown_part",
 ]
+
+#: Pixels of the level rendered around the part on screen by a preview: a little panning
+#: shows rendered pixels, and the rim the algorithm leaves (``border``) stays off screen.
+PREVIEW_MARGIN = 32
+
+#: The part of a level a preview renders starts and ends at multiples of this, in pixels.
+PREVIEW_GRID = 256
 
 
 def downsample_factors(levels: Sequence[Any], ndim: int) -> np.ndarray:
@@ -81,7 +93,49 @@ def level_snapshot(snapshot: LayerSnapshot, level: int) -> LayerSnapshot:
         data_level=0,
         scale=np.asarray(snapshot.scale, dtype=float) * factors,
         visible_index=visible_index,
+        shown_region=snapshot.shown_region if level == shown_level(snapshot) else None,
     )
+
+
+def shown_part(snapshot: LayerSnapshot, margin: int = PREVIEW_MARGIN) -> LayerSnapshot:
+    """``snapshot`` (a level's, :func:`level_snapshot`) cut to its ``shown_region`` and
+    ``margin`` pixels around it, out to multiples of ``PREVIEW_GRID`` (a small pan
+    keeps the part, and the preview's pattern, as they are), its translate moved so that the part sits where napari
+    draws it; the snapshot as it is when no region is known, the region covers the level,
+    or the layer is rotated or sheared (its translate would move along other axes).
+    """
+    region = snapshot.shown_region
+    if region is None or not _unrotated(snapshot):
+        return snapshot
+    y_axis, x_axis = pyramid_axes(snapshot.rgb)
+    shape = tuple(snapshot.data.shape)
+    bounds = []
+    for (start, stop), size in zip(region, (shape[y_axis], shape[x_axis]), strict=True):
+        start = max(0, (int(start) - margin) // PREVIEW_GRID * PREVIEW_GRID)
+        stop = min(size, -(-(int(stop) + margin) // PREVIEW_GRID) * PREVIEW_GRID)
+        if stop - start < 3:  # nothing of the level on screen: render it whole
+            return snapshot
+        bounds.append((start, stop))
+    if [stop - start for start, stop in bounds] == [shape[y_axis], shape[x_axis]]:
+        return snapshot
+    key = [slice(None)] * len(shape)
+    key[y_axis], key[x_axis] = (slice(start, stop) for start, stop in bounds)
+    translate = np.array(snapshot.translate, dtype=float)
+    scale = np.asarray(snapshot.scale, dtype=float)
+    translate[-2:] += scale[-2:] * [start for start, _ in bounds]
+    return dataclasses.replace(
+        snapshot,
+        data=snapshot.data[tuple(key)],
+        translate=translate,
+        shown_region=tuple(bounds),
+    )
+
+
+def _unrotated(snapshot: LayerSnapshot) -> bool:
+    """Whether the layer is neither rotated nor sheared (its data axes are the world's)."""
+    shear = np.asarray(snapshot.shear, dtype=float)
+    no_shear = np.allclose(shear, np.eye(len(shear))) if shear.ndim == 2 else not shear.any()
+    return no_shear and np.allclose(snapshot.rotate, np.eye(len(snapshot.rotate)))
 
 
 def pyramid_axes(rgb: bool) -> tuple[int, int]:

@@ -28,7 +28,7 @@ from ..lazy import is_in_memory
 from ..provenance import FUNCTIONS, call_arguments, input_record, rendering_record
 from .choices import CURRENT_PLANE, Choices, LayerSnapshot
 from .layer_kwargs import METADATA_KEY, result_layer_kwargs
-from .multiscale import level_snapshot, shown_level
+from .multiscale import level_snapshot, shown_level, shown_part
 from .streamed_level import band_count, level_bands, streams
 from .text import parse_sweep_values, plane_label, result_description, result_name, tone_limits
 
@@ -116,6 +116,12 @@ class RenderPlan:
         return self.layer_kwargs["name"]
 
     @property
+    def source_region(self) -> list[list[int]] | None:
+        """The rows and columns of the level a multiscale preview renders (the part on
+        screen), None for the whole level or layer."""
+        return self.layer_kwargs["metadata"][METADATA_KEY].get("source_region")
+
+    @property
     def description(self) -> str:
         """What the result holds, in one line (its metadata record's ``description``)."""
         return self.layer_kwargs["metadata"][METADATA_KEY]["description"]
@@ -134,8 +140,8 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     """What a run with ``choices`` on the layer ``snapshot`` will do.
 
     A multiscale layer renders as a plain layer of one of its levels: a
-    preview the level on screen, a run the full level, whose result gets as
-    many levels as the input (:mod:`.multiscale`).
+    preview the part on screen of the level on screen, a run the full level,
+    whose result gets as many levels as the input (:mod:`.multiscale`).
 
     Raises
     ------
@@ -149,6 +155,11 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
         level = shown_level(snapshot) if choices.preview else 0
         levels = 1 if choices.preview else len(snapshot.data)
         snapshot = level_snapshot(snapshot, level)
+    region = None
+    if multiscale and choices.preview:  # the part of the level on screen
+        part = shown_part(snapshot)
+        region = None if part is snapshot else [list(bounds) for bounds in part.shown_region]
+        snapshot = part
     mode, preset, edits = choices.mode, choices.preset, dict(choices.overrides)
     resolved = resolve_parameters(preset, **edits)
     seed = SWEEPABLE["seed"].validate(choices.seed)  # 2.7 was truncated to 2
@@ -213,6 +224,8 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     )
     if multiscale:
         record.update(source_level=level, levels=levels, band_by_band=streamed is not None)
+        if region is not None:  # a preview of the rows and columns on screen
+            record["source_region"] = region
     extra_axis = {"stack": "pass", "sweep": sweep[0] if sweep else None}.get(mode)
     layer_kwargs = result_layer_kwargs(
         snapshot, name, extra_axis, visible_index if partial else None
