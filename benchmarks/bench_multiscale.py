@@ -15,9 +15,11 @@ screen two ways, interleaved run by run:
 Each run: the widget's Run (default preset) to the multiscale result shown, wall time and
 the worker's time (the status's), the process's CPU time, the progress steps the widget
 received, the process's RSS before and its peak during the run (``VmHWM``, reset before each
-run through ``/proc/self/clear_refs``). Then screenshots of the result zoomed in (1 data pixel = 6 screen
-pixels, at the centre) and zoomed out (the whole image, napari showing the lowest level),
-saved as PNGs in ``--out``.
+run through ``/proc/self/clear_refs``). Then the preview on the input zoomed in at its
+centre (1 data pixel = 6 screen pixels): seconds until it is shown, what it rendered, seconds
+to settle after a pan of about a screen's width, its peak over the memory before it. Then
+screenshots of the result zoomed in (at the centre, as the preview) and zoomed out (the whole
+image, napari showing the lowest level), saved as PNGs in ``--out``.
 """
 
 from __future__ import annotations
@@ -32,6 +34,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from napari_labyrinth.provenance import KEY
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _qt_loop import process_events, wait_until
@@ -178,6 +182,39 @@ def _run(viewer, widget, layer) -> dict:
     }
 
 
+def _preview(viewer, widget, layer, result, side: int) -> str:
+    """The preview zoomed in at the centre (``ZOOMED_IN``): seconds to its layer shown, what
+    it rendered; then seconds to settle after a pan of about a screen's width."""
+    result.visible = False
+    widget.image_layer.value = layer
+    viewer.camera.center = (side / 2, side / 2)
+    viewer.camera.zoom = ZOOMED_IN
+    _events(1.0)
+    _reset_peak()
+    before, _ = _rss()
+    started = time.perf_counter()
+    widget.preview_toggle.value = True
+    _wait(lambda: widget.preview.layer is not None and not widget.preview.busy)
+    shown = time.perf_counter() - started
+    preview = widget.preview.layer
+    region = preview.metadata[KEY].get("source_region")
+    shape = tuple(preview.data.shape)
+    started = time.perf_counter()
+    viewer.camera.center = (side / 2, side / 2 + 1000 / ZOOMED_IN)
+    _events(0.2)
+    _wait(lambda: not widget.preview.busy)
+    panned = time.perf_counter() - started
+    _, peak = _rss()
+    widget.preview_toggle.value = False
+    _events(0.5)
+    result.visible = True
+    viewer.reset_view()
+    return (
+        f"  preview zoomed in: shown after {shown:.1f} s, {shape} rendered (part {region});"
+        f" settled {panned:.1f} s after a pan; peak {peak - before:+.0f} MB"
+    )
+
+
 def _screenshots(viewer, layer, result, out: Path, way: str, side: int) -> list[Path]:
     layer.visible = False
     viewer.reset_view()
@@ -261,6 +298,7 @@ def main() -> None:
                 f" result levels {figure['result']} ({_load()})\n  busiest threads in the run:"
                 f" {figure['threads']}\n  in {IDLE_SECONDS:.0f} s before it: {figure['idle']}"
             )
+            print(_preview(viewer, widget, layer, result, side))
             if round_number == arguments.runs - 1:
                 _screenshots(viewer, layer, result, out, way, side)
             for other in list(viewer.layers):
