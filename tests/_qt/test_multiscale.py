@@ -12,6 +12,7 @@ pytest.importorskip("napari")
 pytest.importorskip("pytestqt")
 
 from napari_labyrinth import api, labyrinth
+from napari_labyrinth._qt.preview import viewer_camera
 from napari_labyrinth.io._pyramid import halved
 from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
 
@@ -42,7 +43,7 @@ def open_widget(viewer):
 
 def zoom_to_level(qtbot, viewer, layer, level: int) -> None:
     """Zoom until napari shows ``level`` (one screen pixel: ``4 ** level / 2`` data pixels)."""
-    viewer.camera.zoom = 2.0 / 4**level / SCALE[0]
+    viewer_camera(viewer).zoom = 2.0 / 4**level / SCALE[0]
     qtbot.waitUntil(lambda: layer.data_level == level, timeout=5000)
 
 
@@ -175,8 +176,8 @@ def test_the_preview_zoomed_in_renders_the_part_on_screen_and_follows_a_pan(qtbo
     widget = open_widget(viewer)
     widget.image_layer.value = cam
     widget.fields["passes"].value = 1
-    viewer.camera.zoom = 4.0 / SCALE[0]  # 4 screen pixels a data pixel: level 0
-    viewer.camera.center = (TRANSLATE[0] + 300 * SCALE[0], TRANSLATE[1] + 400 * SCALE[1])
+    viewer_camera(viewer).zoom = 4.0 / SCALE[0]  # 4 screen pixels a data pixel: level 0
+    viewer_camera(viewer).center = (TRANSLATE[0] + 300 * SCALE[0], TRANSLATE[1] + 400 * SCALE[1])
     qtbot.waitUntil(lambda: cam.data_level == 0, timeout=5000)
     widget.preview_toggle.value = True
 
@@ -197,7 +198,7 @@ def test_the_preview_zoomed_in_renders_the_part_on_screen_and_follows_a_pan(qtbo
     (top, bottom), (left, right) = shown_part()
     assert (bottom - top) * (right - left) < 2048 * 2048 / 4  # a part, not the level
     assert top <= 300 < bottom and left <= 400 < right  # around the centre of the view
-    viewer.camera.center = (TRANSLATE[0] + 1700 * SCALE[0], TRANSLATE[1] + 1500 * SCALE[1])
+    viewer_camera(viewer).center = (TRANSLATE[0] + 1700 * SCALE[0], TRANSLATE[1] + 1500 * SCALE[1])
     qtbot.waitUntil(
         lambda: widget.preview.layer.metadata[METADATA_KEY]["source_region"][0][0] > bottom,
         timeout=RUN_TIMEOUT_MS,

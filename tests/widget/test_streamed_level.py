@@ -21,7 +21,6 @@ da = pytest.importorskip("dask.array")
 from napari_labyrinth import api
 from napari_labyrinth._budget import MEMORY_ENV, refusal
 from napari_labyrinth.core.presets import resolve_parameters
-from napari_labyrinth.io._pyramid import halved
 from napari_labyrinth.io.bands import array_plane_bands
 from napari_labyrinth.widget.choices import Choices, LayerSnapshot
 from napari_labyrinth.widget.layer_kwargs import METADATA_KEY

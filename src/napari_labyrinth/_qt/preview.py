@@ -91,8 +91,9 @@ class Preview:
         self._timer.setInterval(DEBOUNCE_MS)
         self._timer.timeout.connect(self._render)
         # a multiscale input's level, and the part of it on screen
-        viewer.camera.events.zoom.connect(self.request)
-        viewer.camera.events.center.connect(self.request)
+        self._camera = viewer_camera(viewer)
+        self._camera.events.zoom.connect(self.request)
+        self._camera.events.center.connect(self.request)
 
     @property
     def busy(self) -> bool:
@@ -216,5 +217,13 @@ class Preview:
     def close(self) -> None:
         """Stop for good (the widget is closing)."""
         self.set_enabled(False)
-        self.viewer.camera.events.zoom.disconnect(self.request)
-        self.viewer.camera.events.center.disconnect(self.request)
+        self._camera.events.zoom.disconnect(self.request)
+        self._camera.events.center.disconnect(self.request)
+
+
+def viewer_camera(viewer: Viewer):
+    """The viewer's camera: ``viewer.scene.camera`` from napari 0.9 on (``viewer.camera``
+    is deprecated there), ``viewer.camera`` before."""
+    scene = getattr(viewer, "scene", None)
+    camera = getattr(scene, "camera", None)
+    return camera if camera is not None else viewer.camera
