@@ -26,6 +26,8 @@ from napari_labyrinth.core.tone_scale import resolve_tone_scale
 from napari_labyrinth.io import bands as plane_bands
 from napari_labyrinth.io import read_image, read_metadata
 
+from .. import textures
+
 SHAPE = (512, 700)
 ROWS = 16  # the chunks and strips of the inputs
 #: The memory of every rendering below: too little for the plane, enough for bands of 16 to
@@ -34,14 +36,7 @@ BUDGET = "1500K"
 
 
 def smooth(dtype, shape=SHAPE, seed=0) -> np.ndarray:
-    """A smooth random texture with sharp stripes, on most of the dtype's range."""
-    rng = np.random.default_rng(seed)
-    walk = rng.standard_normal(shape).cumsum(0).cumsum(1)
-    walk += 30 * (np.add.outer(np.arange(shape[0]), np.arange(shape[1])) % 29 < 5)
-    unit = (walk - walk.min()) / np.ptp(walk)
-    if np.dtype(dtype).kind == "f":
-        return unit.astype(dtype)
-    return (unit * 0.9 * np.iinfo(dtype).max).astype(dtype)
+    return textures.smooth(dtype, shape, seed)
 
 
 def written_input(path: Path, image: np.ndarray) -> Path:

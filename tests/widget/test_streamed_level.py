@@ -31,6 +31,7 @@ from napari_labyrinth.widget.pyramid_store import CHUNK_COLUMNS, PyramidStore
 from napari_labyrinth.widget.run import result_layer
 from napari_labyrinth.widget.streamed_level import band_rows, streams
 
+from .. import textures
 from .plan_helpers import drive
 
 SHAPE = (512, 700)
@@ -40,14 +41,7 @@ CHUNK_ROWS = 16
 
 
 def smooth(dtype, shape=SHAPE, seed=0) -> np.ndarray:
-    """A smooth random texture with sharp stripes, on most of the dtype's range."""
-    rng = np.random.default_rng(seed)
-    walk = rng.standard_normal(shape).cumsum(0).cumsum(1)
-    walk += 30 * (np.add.outer(np.arange(shape[0]), np.arange(shape[1])) % 29 < 5)
-    unit = (walk - walk.min()) / np.ptp(walk)
-    if np.dtype(dtype).kind == "f":
-        return unit.astype(dtype)
-    return (unit * 0.9 * np.iinfo(dtype).max).astype(dtype)
+    return textures.smooth(dtype, shape, seed)
 
 
 def limits(image) -> tuple[float, float]:
