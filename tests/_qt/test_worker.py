@@ -10,6 +10,8 @@ import pytest
 pytest.importorskip("napari")
 pytest.importorskip("pytestqt")
 
+from qtpy.QtCore import Qt
+
 from .helpers import RUN_TIMEOUT_MS, noise, run
 
 
@@ -104,10 +106,24 @@ def test_napari_s_abort_ends_the_run_and_its_threads(qtbot, viewer, widget, run_
     widget.fields["passes"].value = 4
     layers_before = len(viewer.layers)
     worker = widget.run(start=False)
-    if not run_sees_the_abort:
-        # only napari's loop sees it: it stops driving the run, which must then be closed
-        widget._plan.abort_requested = lambda: False
-    worker.yielded.connect(lambda _: worker.quit())  # as napari's activity panel does
+    # the run waits, from its first yield on, for the abort to be asked: a short run would
+    # otherwise end before the main thread gets to the first yield (a busy machine)
+    yielded, asked = threading.Event(), threading.Event()
+    sees = widget._plan.abort_requested if run_sees_the_abort else lambda: False
+    # (False: only napari's loop sees it: it stops driving the run, which must then be closed)
+
+    def abort_requested():
+        if yielded.is_set():
+            asked.wait(RUN_TIMEOUT_MS / 1000)
+        return sees()
+
+    def quit_on_yield(_):  # as napari's activity panel does
+        worker.quit()
+        asked.set()
+
+    widget._plan.abort_requested = abort_requested
+    worker.yielded.connect(lambda _: yielded.set(), Qt.ConnectionType.DirectConnection)
+    worker.yielded.connect(quit_on_yield)
     worker.start()
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
     qtbot.waitUntil(
