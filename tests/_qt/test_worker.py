@@ -73,6 +73,32 @@ def test_by_default_the_progress_shows_in_the_widget_only(qtbot, viewer, widget)
     assert bars == []
 
 
+def on_first_yield(widget, worker, stop, abort_requested=None):
+    """Call ``stop`` on the main thread at the run's first yield; the run waits for it.
+
+    A short run may otherwise end before the main thread gets to its first yield
+    (a busy machine: Qt queues the worker's signals), and nothing is left to stop.
+    The run's plan asks ``abort_requested`` (default: its own) once ``stop`` is done.
+    """
+    yielded, stopped = threading.Event(), threading.Event()
+    sees = widget._plan.abort_requested if abort_requested is None else abort_requested
+
+    def waiting_abort_requested():
+        if yielded.is_set():
+            stopped.wait(RUN_TIMEOUT_MS / 1000)
+        return sees()
+
+    def stop_once(_):
+        if not stopped.is_set():
+            stop()
+            stopped.set()
+
+    widget._plan.abort_requested = waiting_abort_requested
+    # marked in the worker's thread as it yields, before the run goes on
+    worker.yielded.connect(lambda _: yielded.set(), Qt.ConnectionType.DirectConnection)
+    worker.yielded.connect(stop_once)
+
+
 def test_cancel_stops_the_run_and_adds_no_layer(qtbot, viewer, widget):
     viewer.add_image(noise((12, 256, 256)), name="movie")
     widget.fields["passes"].value = 4
@@ -80,12 +106,8 @@ def test_cancel_stops_the_run_and_adds_no_layer(qtbot, viewer, widget):
     worker = widget.run(start=False)
     total = widget.progress_bar.maximum()
     yields = []
-
-    def cancel_on_first_yield(value):
-        yields.append(value)
-        widget.cancel()
-
-    worker.yielded.connect(cancel_on_first_yield)
+    worker.yielded.connect(yields.append)
+    on_first_yield(widget, worker, widget.cancel)
     worker.start()
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
     assert len(viewer.layers) == layers_before
@@ -106,24 +128,9 @@ def test_napari_s_abort_ends_the_run_and_its_threads(qtbot, viewer, widget, run_
     widget.fields["passes"].value = 4
     layers_before = len(viewer.layers)
     worker = widget.run(start=False)
-    # the run waits, from its first yield on, for the abort to be asked: a short run would
-    # otherwise end before the main thread gets to the first yield (a busy machine)
-    yielded, asked = threading.Event(), threading.Event()
     sees = widget._plan.abort_requested if run_sees_the_abort else lambda: False
     # (False: only napari's loop sees it: it stops driving the run, which must then be closed)
-
-    def abort_requested():
-        if yielded.is_set():
-            asked.wait(RUN_TIMEOUT_MS / 1000)
-        return sees()
-
-    def quit_on_yield(_):  # as napari's activity panel does
-        worker.quit()
-        asked.set()
-
-    widget._plan.abort_requested = abort_requested
-    worker.yielded.connect(lambda _: yielded.set(), Qt.ConnectionType.DirectConnection)
-    worker.yielded.connect(quit_on_yield)
+    on_first_yield(widget, worker, worker.quit, sees)  # as napari's activity panel does
     worker.start()
     qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
     qtbot.waitUntil(
