@@ -13,18 +13,14 @@ from napari_labyrinth.core.noise import tone_noise_sigma, variance_floor
 from napari_labyrinth.core.presets import resolve_parameters
 from napari_labyrinth.core.tone_scale import resolve_tone_scale
 
+from .. import textures
+
 SHAPE = (96, 70)
 
 
 def smooth(shape=SHAPE, dtype=np.uint16, seed=0) -> np.ndarray:
     """A smooth random texture with a few sharp edges, on most of the dtype's range."""
-    rng = np.random.default_rng(seed)
-    walk = rng.standard_normal(shape).cumsum(0).cumsum(1)
-    walk += 40 * (np.add.outer(np.arange(shape[0]), np.arange(shape[1])) % 23 < 4)
-    unit = (walk - walk.min()) / np.ptp(walk)
-    if np.dtype(dtype).kind == "f":
-        return unit.astype(dtype)
-    return (unit * 0.9 * np.iinfo(dtype).max).astype(dtype)
+    return textures.smooth(dtype, shape, seed, stripes=(40, 23, 4))
 
 
 def streamed(image, parameters, seed, rows, tone_limits=None, workers=1):

@@ -18,7 +18,7 @@ from napari.layers import Image
 from napari.viewer import Viewer
 from qtpy.QtWidgets import QWidget
 
-__all__ = ["StoreKeeper"]
+__all__ = ["StoreKeeper", "unwrapped"]
 
 #: The keepers whose store is still in use (napari's events hold a method weakly: each is
 #: kept here until its layer goes).
@@ -81,5 +81,6 @@ class StoreKeeper:
 
 
 def unwrapped(layer):
-    """The layer behind a proxy napari hands a plugin (never compared by identity)."""
+    """The layer behind ``layer``: napari hands a plugin proxies of its objects, and a
+    proxy and the layer it wraps are not the same object."""
     return getattr(layer, "__wrapped__", layer)

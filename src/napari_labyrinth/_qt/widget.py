@@ -47,8 +47,8 @@ from .lifecycle import ClosesWithItsDock
 from .metrics_plot import MetricsPlot
 from .metrics_table import MetricsTable
 from .plane_queue import PlaneQueue
-from .result_store import StoreKeeper
 from .preview import Preview
+from .result_store import StoreKeeper, unwrapped
 from .sweep_label import SweepLabel
 from .warm_up import PREPARING, WarmUp
 from .worker import NEXT_TURN_MS, main_window, render_worker, show_result, stop
@@ -634,7 +634,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
 
     def _on_layer_removed(self, event) -> None:
         """Removing the input of a run cancels it: its result would have nowhere to go."""
-        if self.worker is not None and _unwrapped(event.value) is _unwrapped(self._input):
+        if self.worker is not None and unwrapped(event.value) is unwrapped(self._input):
             self._cancel_because("the input layer was removed")
 
     def close_down(self) -> None:
@@ -667,10 +667,6 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         return self._compare.active
 
 
-def _unwrapped(layer):
-    """The layer behind ``layer``: napari hands a plugin proxies of its objects, and a
-    proxy and the layer it wraps are not the same object."""
-    return getattr(layer, "__wrapped__", layer)
 
 
 def _nothing() -> None:

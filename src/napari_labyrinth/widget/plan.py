@@ -24,12 +24,13 @@ from ..core.colour import resolve_colour
 from ..core.parameters import SWEEPABLE, LabyrinthParameters
 from ..core.planes import first_plane_index, step_count
 from ..core.presets import resolve_parameters, resolve_sweep
+from ..io.bands import array_plane_bands
 from ..lazy import is_in_memory
 from ..provenance import FUNCTIONS, call_arguments, input_record, rendering_record
 from .choices import CURRENT_PLANE, Choices, LayerSnapshot
 from .layer_kwargs import METADATA_KEY, result_layer_kwargs
 from .multiscale import level_snapshot, shown_level, shown_part
-from .streamed_level import band_count, level_bands, streams
+from .streamed_level import band_count, streams
 from .text import parse_sweep_values, plane_label, result_description, result_name, tone_limits
 
 __all__ = ["MODES", "Cancelled", "RenderPlan", "make_plan", "run_steps"]
@@ -199,7 +200,7 @@ def make_plan(snapshot: LayerSnapshot | None, choices: Choices) -> RenderPlan:
     streamed = None
     if multiscale and streams(mode, bool(snapshot.rgb), snapshot.ndim, levels, resolved):
         streamed = resolved
-        total = band_count(level_bands(source, snapshot.name), resolved, levels)
+        total = band_count(array_plane_bands(source, snapshot.name), resolved, levels)
 
     label = plane_label(snapshot.axis_labels, visible_index) if partial else ""
     name = result_name(snapshot.name, mode, sweep[0] if sweep else "", label)

@@ -128,19 +128,12 @@ class PlaneStore(StoreDirectory):
         Number of trailing axes of one plane (2, or 3 with colour channels):
         a chunk holds one plane, the axes before it are chunked by one.
     directory : path, optional
-        Where the store's directory goes (default: the system's temporary directory).
+        As for :class:`StoreDirectory`, which holds the array (and raises as it does).
 
     Attributes
     ----------
-    path : Path
-        The store's directory.
     array : zarr.Array
         The array the result layer reads.
-
-    Raises
-    ------
-    ValueError
-        If zarr is not installed (with what to install).
     """
 
     def __init__(

@@ -161,10 +161,7 @@ def _streamed_outcome(plan: RenderPlan, started: float) -> Generator[int, None, 
     level = yield from render_level(
         plan.data, plan.source, plan.streamed, plan.arguments, plan.levels, plan.should_stop
     )
-    if level is None:
-        raise Cancelled
-    if plan.should_stop():
-        level.store.remove()
+    if level is None:  # stopped (after the last band too): its store is removed
         raise Cancelled
     seconds = time.perf_counter() - started
     return Outcome(level.store.arrays, level.diagnostics, [], seconds, store=level.store)

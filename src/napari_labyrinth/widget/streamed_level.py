@@ -32,7 +32,7 @@ from ..io.bands import PlaneBands, array_plane_bands
 from ..streaming import plane_stream, written_rows
 from .pyramid_store import PyramidStore
 
-__all__ = ["StreamedLevel", "band_count", "band_rows", "level_bands", "render_level", "streams"]
+__all__ = ["StreamedLevel", "band_count", "band_rows", "render_level", "streams"]
 
 
 def streams(
@@ -48,11 +48,6 @@ def streams(
         and levels > 1
         and streaming_refusal(parameters) is None
     )
-
-
-def level_bands(data: Any, name: str) -> PlaneBands:
-    """The full level ``data`` (numpy, dask or zarr) read by bands of its chunks' rows."""
-    return array_plane_bands(data, name)
 
 
 def band_rows(plane: PlaneBands, parameters: LabyrinthParameters, levels: int) -> int:
@@ -97,7 +92,7 @@ def render_level(
     once ``should_stop()`` says so (checked after each band); the store is
     removed too if the rendering fails.
     """
-    plane = level_bands(data, name)
+    plane = array_plane_bands(data, name)  # by bands of its chunks' rows
     stream = plane_stream(
         plane,
         parameters,
