@@ -375,6 +375,7 @@ class HeldChunkWrite:
 
     def __init__(self, monkeypatch, metadata=False):
         self.entered, self.released, self.finished = (threading.Event() for _ in range(3))
+        self.released_at: float | None = None  # time.monotonic() at the release
         original = zarr.storage.LocalStore.set
         held = self
 
@@ -522,18 +523,24 @@ def test_a_second_ctrl_c_while_a_block_is_written_leaves_no_temporary(tmp_path, 
 def test_ctrl_c_twice_while_the_cli_writes_a_block_exits_130_and_leaves_no_temporary(
     tmp_path, monkeypatch, capsys
 ):
-    from napari_labyrinth.cli import _common
-
     source = store(tmp_path / "in.zarr", textured((1, 64, 64)))
     held = HeldChunkWrite(monkeypatch)
-    twice = threading.Event()
+    twice, waiting = threading.Event(), threading.Event()
+    wait = lazy_blocks.wait_through_interrupts
+
+    def waited(*args, **kwargs):
+        waiting.set()
+        return wait(*args, **kwargs)
+
+    # the second Ctrl-C comes while the run waits for the block, not as the first unwinds
+    monkeypatch.setattr(lazy_blocks, "wait_through_interrupts", waited)
 
     def interrupt_twice(main_thread):
-        held.entered.wait(60)
-        signal.pthread_kill(main_thread, signal.SIGINT)
-        while _common._interrupted is None:  # the command's handler has run
-            time.sleep(0.005)
-        signal.pthread_kill(main_thread, signal.SIGINT)
+        for ready in (held.entered, waiting):
+            if not ready.wait(60):
+                return  # the test fails on what the command did meanwhile
+            time.sleep(0.2)  # the main thread blocked in the wait
+            signal.pthread_kill(main_thread, signal.SIGINT)
         twice.set()
 
     threading.Thread(
@@ -542,6 +549,7 @@ def test_ctrl_c_twice_while_the_cli_writes_a_block_exits_130_and_leaves_no_tempo
     with held.released_when_raised(twice):
         code = render(source, "-o", tmp_path / "out.zarr", *OPTIONS)
         returned = time.monotonic()
+    assert twice.is_set(), "the command never waited for the block being written"
     assert code == 130
     assert error_lines(capsys.readouterr().err) == ["napari-labyrinth: error: interrupted"]
     assert sorted(os.listdir(tmp_path)) == ["in.zarr"]
