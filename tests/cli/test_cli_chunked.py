@@ -25,11 +25,11 @@ da = pytest.importorskip("dask.array")
 from napari_labyrinth import io as file_io
 from napari_labyrinth import labyrinth, labyrinth_stack, labyrinth_sweep
 from napari_labyrinth import lazy as lazy_images
-from napari_labyrinth.lazy import blocks as lazy_blocks
 from napari_labyrinth.cli import main
 from napari_labyrinth.io import open_image, read_image, write_image
 from napari_labyrinth.io import tiff as tiff_files
 from napari_labyrinth.io import zarr as zarr_stores
+from napari_labyrinth.lazy import blocks as lazy_blocks
 
 SHAPE = (6, 64, 64)
 OPTIONS = ["--passes", "2", "--seed", "7"]
@@ -414,6 +414,22 @@ class HeldChunkWrite:
             assert self.finished.wait(60), "the held block write never ended"
 
 
+def the_wait_for_the_block(monkeypatch) -> threading.Event:
+    """An event set once an interrupted run begins to wait for the block writes under way.
+
+    A second Ctrl-C sent after it comes during that wait, not as the first one unwinds.
+    """
+    begun = threading.Event()
+    wait = lazy_blocks.wait_through_interrupts
+
+    def waited(*args, **kwargs):
+        begun.set()
+        return wait(*args, **kwargs)
+
+    monkeypatch.setattr(lazy_blocks, "wait_through_interrupts", waited)
+    return begun
+
+
 def _started_by(*module) -> bool:
     """Whether the main thread starts a thread from ``module`` (``"lazy", "blocks.py"``)."""
     if threading.current_thread() is not threading.main_thread():
@@ -481,15 +497,8 @@ def test_a_second_ctrl_c_while_a_block_is_written_leaves_no_temporary(tmp_path, 
     # the first Ctrl-C had the run wait for the block being written; a second one ended
     # the wait (Thread.join), the temporary was removed, and the block's write made it again
     held = HeldChunkWrite(monkeypatch)
-    handled, twice, waiting = [], threading.Event(), threading.Event()
-    wait = lazy_blocks.wait_through_interrupts
-
-    def waited(*args, **kwargs):
-        waiting.set()
-        return wait(*args, **kwargs)
-
-    # the second Ctrl-C comes while the run waits for the block, not as the first unwinds
-    monkeypatch.setattr(lazy_blocks, "wait_through_interrupts", waited)
+    handled, twice = [], threading.Event()
+    waiting = the_wait_for_the_block(monkeypatch)
 
     def handler(signum, frame):
         handled.append(signum)
@@ -525,15 +534,8 @@ def test_ctrl_c_twice_while_the_cli_writes_a_block_exits_130_and_leaves_no_tempo
 ):
     source = store(tmp_path / "in.zarr", textured((1, 64, 64)))
     held = HeldChunkWrite(monkeypatch)
-    twice, waiting = threading.Event(), threading.Event()
-    wait = lazy_blocks.wait_through_interrupts
-
-    def waited(*args, **kwargs):
-        waiting.set()
-        return wait(*args, **kwargs)
-
-    # the second Ctrl-C comes while the run waits for the block, not as the first unwinds
-    monkeypatch.setattr(lazy_blocks, "wait_through_interrupts", waited)
+    twice = threading.Event()
+    waiting = the_wait_for_the_block(monkeypatch)
 
     def interrupt_twice(main_thread):
         for ready in (held.entered, waiting):
