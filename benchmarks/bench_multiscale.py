@@ -4,9 +4,9 @@ Run under Xvfb: ``xvfb-run -a python benchmarks/bench_multiscale.py [--out DIR] 
 [--side 8192] [--ways napari-ome-zarr,add_image]``.
 Prints figures; asserts nothing; the machine's load is printed before and after.
 
-The OME-Zarr (8192², 4096², 2048² uint16 by default, ``--side`` the full level's; written by ``ome_zarr.writer`` from a dask array,
-in a process of its own so that its memory does not count here) is opened in a viewer on
-screen two ways, interleaved run by run:
+The OME-Zarr (8192², 4096², 2048² uint16 by default, ``--side`` the full level's; written by
+``ome_zarr.writer`` from a dask array, in a process of its own so that its memory does not
+count here) is opened in a viewer on screen two ways, interleaved run by run:
 
 - ``napari-ome-zarr``: ``viewer.open(path, plugin="napari-ome-zarr")``;
 - ``add_image``: ``viewer.add_image([levels], multiscale=True)`` of the zarr arrays read
@@ -49,7 +49,10 @@ IDLE_SECONDS = 5.0
 
 
 def _write(path: str, side: int) -> None:
-    """Write the OME-Zarr: smooth structures and noise, block by block (bounded memory)."""
+    """Write the OME-Zarr block by block (bounded memory): wavy stripes about 60 pixels
+    apart, crossed by slower bands, over a fine weave of 3-pixel period, under broad shading
+    and a little noise (the default preset's noise gate leaves a plain smooth field with
+    noise as it is: its rendering showed no pattern zoomed in)."""
     import dask.array as da
     import zarr
     from ome_zarr.writer import write_image
@@ -58,8 +61,11 @@ def _write(path: str, side: int) -> None:
         (y0, y1), (x0, x1) = block_info[None]["array-location"]
         y, x = np.mgrid[y0:y1, x0:x1].astype(np.float32)
         rng = np.random.default_rng(y0 * side + x0)
-        cells = np.sin(x / 97.0) * np.cos(y / 131.0) + 0.5 * np.sin((x + 2 * y) / 611.0)
-        values = 30000 + 12000 * cells + rng.normal(0, 1500, cells.shape)
+        across, along = x / 9.0 + 4 * np.sin(y / 151.0), y / 37.0 + 3 * np.cos(x / 173.0)
+        stripes = np.sin(across) * np.cos(along)
+        shading = 0.5 * np.sin((x + 2 * y) / 611.0)
+        weave = np.sin(x / 3.1 + 5 * np.sin(y / 23.0)) * np.sin(y / 2.7)
+        values = 30000 + 12000 * (stripes + shading) + 4000 * weave + rng.normal(0, 600, x.shape)
         return np.clip(values, 0, 65535).astype(np.uint16)
 
     chunks = (1024,) * (side // 1024) + ((side % 1024,) if side % 1024 else ())
@@ -185,10 +191,13 @@ def _run(viewer, widget, layer) -> dict:
 def _preview(viewer, widget, layer, result, side: int) -> str:
     """The preview zoomed in at the centre (``ZOOMED_IN``): seconds to its layer shown, what
     it rendered; then seconds to settle after a pan of about a screen's width."""
+    from napari_labyrinth._qt.preview import viewer_camera  # napari's, before 0.9 or since
+
+    camera = viewer_camera(viewer)
     result.visible = False
     widget.image_layer.value = layer
-    viewer.camera.center = (side / 2, side / 2)
-    viewer.camera.zoom = ZOOMED_IN
+    camera.center = (side / 2, side / 2)
+    camera.zoom = ZOOMED_IN
     _events(1.0)
     _reset_peak()
     before, _ = _rss()
@@ -200,7 +209,7 @@ def _preview(viewer, widget, layer, result, side: int) -> str:
     region = preview.metadata[KEY].get("source_region")
     shape = tuple(preview.data.shape)
     started = time.perf_counter()
-    viewer.camera.center = (side / 2, side / 2 + 1000 / ZOOMED_IN)
+    camera.center = (side / 2, side / 2 + 1000 / ZOOMED_IN)
     _events(0.2)
     _wait(lambda: not widget.preview.busy)
     panned = time.perf_counter() - started
@@ -222,8 +231,11 @@ def _screenshots(viewer, layer, result, out: Path, way: str, side: int) -> list[
     zoomed_out = out / f"multiscale-{side}-{way}-zoomed-out.png"
     viewer.screenshot(str(zoomed_out), canvas_only=True)
     level_out = result.data_level
-    viewer.camera.center = (side / 2, side / 2)
-    viewer.camera.zoom = ZOOMED_IN
+    from napari_labyrinth._qt.preview import viewer_camera  # napari's, before 0.9 or since
+
+    camera = viewer_camera(viewer)
+    camera.center = (side / 2, side / 2)
+    camera.zoom = ZOOMED_IN
     _events(1.5)
     zoomed_in = out / f"multiscale-{side}-{way}-zoomed-in.png"
     viewer.screenshot(str(zoomed_in), canvas_only=True)
@@ -291,7 +303,8 @@ def main() -> None:
             rows.append(figure)
             print(
                 f"round {round_number + 1} {way:16} levels {shapes}: wall {figure['wall']:.1f} s,"
-                f" worker {figure['worker']:.1f} s, CPU {figure['cpu']:.1f} s, steps {figure['steps']}, RSS before"
+                f" worker {figure['worker']:.1f} s, CPU {figure['cpu']:.1f} s,"
+                f" steps {figure['steps']}, RSS before"
                 f" {figure['rss']:.0f} MB, peak {figure['peak']:.0f} MB"
                 f" (+{figure['peak'] - figure['rss']:.0f} MB), full level read:"
                 f" {figure['chunks']}; napari's dask cache {figure['dask cache']:.0f} MB;"
