@@ -117,6 +117,21 @@ def test_an_ome_zarr_output_has_its_levels_and_metadata_through_ome_zarr(tmp_pat
     assert back.channel_names == ("dapi", "gfp") and back.image_name == "zstack"
 
 
+@pytest.mark.parametrize("lazy", [False, True], ids=["in-memory", "lazy"])
+def test_every_level_names_its_dimensions_as_the_axes(tmp_path, lazy):
+    # OME-Zarr 0.5: each level's dimension_names MUST match the axes; they had none
+    pytest.importorskip("ome_zarr")
+    image = _image()
+    if lazy:
+        image = pytest.importorskip("dask.array").from_array(image, chunks=(1, 1, 600, 1100))
+    out = file_io.write_array(tmp_path / "out.zarr", image, metadata=_metadata())
+    import zarr
+
+    group = zarr.open_group(out, mode="r")
+    for level in ("0", "1", "2"):
+        assert group[level].metadata.dimension_names == ("c", "z", "y", "x")
+
+
 def test_napari_ome_zarr_reads_the_levels_without_a_viewer(tmp_path):
     pytest.importorskip("ome_zarr")
     reader_plugin = pytest.importorskip("napari_ome_zarr")
@@ -132,6 +147,17 @@ def test_napari_ome_zarr_reads_the_levels_without_a_viewer(tmp_path):
     assert kwargs["channel_axis"] == 0 and kwargs["name"] == ["zstack: dapi", "zstack: gfp"]
     assert list(kwargs["scale"]) == [2.0, 0.5, 0.25]
     np.testing.assert_array_equal(np.asarray(data[0]), image)
+
+
+@pytest.mark.parametrize("axes,names", [("CZYX", ("dapi", "gfp")), ("CZYX", ()), ("ZYX", ("x",))])
+def test_an_output_is_a_valid_ome_zarr_image(tmp_path, axes, names):
+    models = pytest.importorskip("ome_zarr_models.v05")
+    image = _image() if axes.startswith("C") else _image()[0]
+    metadata = _metadata(axes=axes, channel_names=names)
+    out = file_io.write_array(tmp_path / "out.zarr", image, metadata=metadata)
+    import zarr
+
+    models.Image.from_zarr(zarr.open_group(out, mode="r"))  # raises if it is not
 
 
 def test_without_ome_zarr_the_output_keeps_one_level_and_its_metadata(tmp_path, monkeypatch):

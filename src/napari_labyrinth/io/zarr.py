@@ -247,6 +247,12 @@ def _zarr_attributes(shape: Sequence[int], metadata: ImageMetadata | None) -> tu
     return attributes, "0"
 
 
+def _dimension_names(ome: dict) -> list[str]:
+    """The dimension names of an OME-Zarr image's arrays: its axes' names, as OME-Zarr 0.5
+    requires."""
+    return [entry["name"] for entry in ome["multiscales"][0]["axes"]]
+
+
 def _open_zarr_array(path: Path):
     """The zarr array at ``path``: a store, an OME-Zarr image, a group of one array."""
     root, component = zarr_root(path)
@@ -311,14 +317,16 @@ def _create_zarr_array(zarr, directory: str, array, chunks, metadata, values) ->
     """
     store = directory
     attributes, component = _zarr_attributes(array.shape, metadata)
-    group = None
+    group, names = None, None
     if component:
         group = zarr.open_group(store=store, mode="w")
         group.attrs.update(attributes)
         store = os.path.join(store, component)
+        names = _dimension_names(attributes["ome"])
     target = zarr.create_array(
-        store=store, shape=array.shape, chunks=chunks, dtype=array.dtype, fill_value=0
-    )
+        store=store, shape=array.shape, chunks=chunks, dtype=array.dtype, fill_value=0,
+        dimension_names=names,
+    )  # fmt: skip
     if not component:
         target.attrs.update(attributes)
     if values is not None:
@@ -370,7 +378,7 @@ def _write_lower_levels(zarr, group, full, chunks, ome: dict, rows: int | None =
         level = _waited_for(
             functools.partial(
                 group.create_array, str(number), shape=shape, chunks=plane_chunks,
-                dtype=full.dtype, fill_value=0,
+                dtype=full.dtype, fill_value=0, dimension_names=_dimension_names(ome),
             )
         )  # fmt: skip
         for where in plane_slices(shape, planar):
