@@ -3,9 +3,12 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check
+FORMATS_VENV := .venv-formats
+FORMATS_PY := $(FORMATS_VENV)/bin/python
+FORMATS_PIP := $(FORMATS_PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test test-fast fuzz bench-hostile file-cases bench bench-speed bench-scale bench-widget bench-metrics bench-window bench-cold study gallery screenshot install install-test system-packages clean
+.PHONY: demo test test-fast fuzz bench-hostile file-cases bench bench-speed bench-scale bench-widget bench-metrics bench-window bench-cold formats-table study gallery screenshot install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
@@ -36,6 +39,15 @@ bench-hostile: $(VENV)/.installed-test
 bench: $(VENV)/.installed
 	$(PY) benchmarks/bench_kernel.py
 	$(PY) benchmarks/bench_parallel.py
+
+# The formats of microscopes (the [formats] extra, through bioio): their tests, then a table of
+# what is read from files written as other programs write them (CZI by pylibCZIrw, OME-TIFF by
+# bioio, OME-Zarr by ome-zarr) and kept in OME-TIFF and OME-Zarr outputs, napari-ome-zarr
+# opening the latter. In a venv of its own, .venv-formats: make test keeps its packages.
+formats-table: $(FORMATS_VENV)/.installed
+	$(FORMATS_PY) -m pytest -q -p no:cacheprovider tests/io/test_io_bioio.py \
+		tests/cli/test_cli_bioio.py tests/io/test_io_kept.py
+	$(FORMATS_PY) benchmarks/formats_table.py
 
 # One plane, fast: C reference vs kernel vs labyrinth() (2048², 1 and 4 passes; 1 pass on 17
 # other images), then the exact-order parallel pass (2048² and 8192², a loaded core, tile
@@ -102,6 +114,16 @@ $(VENV)/.installed-docs: $(VENV)/.installed pyproject.toml
 	$(PIP) install -e ".[docs]"
 	touch $@
 
+$(FORMATS_PY):
+	$(PYTHON) -m venv $(FORMATS_VENV)
+	$(FORMATS_PIP) install --upgrade pip
+
+# pylibCZIrw writes the CZI files, napari-ome-zarr (and napari, without Qt) opens the OME-Zarr
+# outputs; the dask extra reads lazily and writes zarr outputs with their pyramids (ome-zarr).
+$(FORMATS_VENV)/.installed: $(FORMATS_PY) pyproject.toml
+	$(FORMATS_PIP) install -e ".[formats,dask]" pylibCZIrw napari-ome-zarr pytest
+	touch $@
+
 # Headless Qt needs an X server (Xvfb) and two xcb libraries beyond the base image.
 system-packages:
 	@missing=""; for p in $(APT_PACKAGES); do \
@@ -116,7 +138,7 @@ system-packages:
 	fi
 
 clean:
-	rm -rf $(VENV) demo-output build dist .pytest_cache .hypothesis
+	rm -rf $(VENV) $(FORMATS_VENV) demo-output build dist .pytest_cache .hypothesis
 
 # Cold start: first call against second, each row in a new process with an empty numba
 # cache (API, CLI, the widget opened from the Plugins menu); BEFORE=f22d86f adds that commit.

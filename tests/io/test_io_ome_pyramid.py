@@ -102,7 +102,7 @@ def test_an_ome_zarr_output_has_its_levels_and_metadata_through_ome_zarr(tmp_pat
     assert [d["path"] for d in multiscale["datasets"]] == ["0", "1", "2"]
     scales = [d["coordinateTransformations"][0]["scale"] for d in multiscale["datasets"]]
     assert scales == [[1.0, 2.0, 0.5, 0.25], [1.0, 2.0, 1.0, 0.5], [1.0, 2.0, 2.0, 1.0]]
-    assert ome["omero"]["channels"] == [{"label": "dapi"}, {"label": "gfp"}]
+    assert [channel["label"] for channel in ome["omero"]["channels"]] == ["dapi", "gfp"]
     import zarr
 
     group = zarr.open_group(out, mode="r")
@@ -115,6 +115,21 @@ def test_an_ome_zarr_output_has_its_levels_and_metadata_through_ome_zarr(tmp_pat
     back = file_io.read_metadata(out)
     assert back.axes == "CZYX" and back.pixel_sizes == SIZES and back.ome
     assert back.channel_names == ("dapi", "gfp") and back.image_name == "zstack"
+
+
+@pytest.mark.parametrize("lazy", [False, True], ids=["in-memory", "lazy"])
+def test_every_level_names_its_dimensions_as_the_axes(tmp_path, lazy):
+    # OME-Zarr 0.5: each level's dimension_names MUST match the axes; they had none
+    pytest.importorskip("ome_zarr")
+    image = _image()
+    if lazy:
+        image = pytest.importorskip("dask.array").from_array(image, chunks=(1, 1, 600, 1100))
+    out = file_io.write_array(tmp_path / "out.zarr", image, metadata=_metadata())
+    import zarr
+
+    group = zarr.open_group(out, mode="r")
+    for level in ("0", "1", "2"):
+        assert group[level].metadata.dimension_names == ("c", "z", "y", "x")
 
 
 def test_napari_ome_zarr_reads_the_levels_without_a_viewer(tmp_path):
@@ -132,6 +147,82 @@ def test_napari_ome_zarr_reads_the_levels_without_a_viewer(tmp_path):
     assert kwargs["channel_axis"] == 0 and kwargs["name"] == ["zstack: dapi", "zstack: gfp"]
     assert list(kwargs["scale"]) == [2.0, 0.5, 0.25]
     np.testing.assert_array_equal(np.asarray(data[0]), image)
+
+
+@pytest.mark.parametrize(
+    "axes,shape,names",
+    [("CYX", (2, 300, 320), ("dapi", "gfp")), ("YX", (300, 320), ("BF",))],
+    ids=["two-channels", "one-channel"],
+)
+def test_napari_shows_the_named_channels_of_an_output_in_a_viewer(tmp_path, axes, shape, names):
+    # the omero channels had a label only: napari-ome-zarr failed on one channel (no colour to
+    # take the first of) and napari refused two (no colormap for either)
+    pytest.importorskip("ome_zarr")
+    reader_plugin = pytest.importorskip("napari_ome_zarr")
+    components = pytest.importorskip("napari.components")
+    image = RNG.integers(100, 4000, shape, dtype=np.uint16)
+    metadata = _metadata(axes=axes, pixel_sizes={}, channel_names=names)
+    out = file_io.write_array(tmp_path / "out.zarr", image, metadata=metadata)
+    viewer = components.ViewerModel()
+    for data, kwargs, kind in reader_plugin.napari_get_reader(str(out))(str(out)):
+        getattr(viewer, f"add_{kind}")(data, **kwargs)
+    assert [layer.name for layer in viewer.layers] == [f"zstack: {name}" for name in names]
+    planes = image if axes == "CYX" else image[None]
+    for layer, plane in zip(viewer.layers, planes, strict=True):
+        assert list(layer.contrast_limits) == [plane.min(), plane.max()]
+        np.testing.assert_array_equal(np.asarray(layer.data[0]), plane)
+
+
+@pytest.mark.parametrize("variant", ["in-memory", "lazy", "one level", "without ome-zarr"])
+def test_each_named_channel_has_a_colour_and_its_range_as_window(tmp_path, monkeypatch, variant):
+    # OME-Zarr's omero channels hold a colour and a window beside the label; they had neither
+    pytest.importorskip("ome_zarr")
+    image = _image() // 20 + 100  # 100 to 3376
+    image[1, 2, 198:200, 298:300] = [[7, 60000], [60000, 60000]]  # in the last plane
+    if variant == "one level":
+        image = image[..., :200, :300]
+    if variant == "without ome-zarr":
+        monkeypatch.setitem(sys.modules, "ome_zarr.writer", None)
+        monkeypatch.setitem(sys.modules, "ome_zarr.format", None)
+    if variant == "lazy":
+        image = pytest.importorskip("dask.array").from_array(image, chunks=(1, 1, 600, 1100))
+    out = file_io.write_array(tmp_path / "out.zarr", image, metadata=_metadata())
+    channels = _attributes(out)["ome"]["omero"]["channels"]
+    assert [channel["label"] for channel in channels] == ["dapi", "gfp"]
+    assert [channel["color"] for channel in channels] == ["FFFFFF", "FFFFFF"]
+    values = np.asarray(image)
+    low, high = int(values[0].min()), int(values[0].max())
+    assert channels[0]["window"] == {"min": low, "max": high, "start": low, "end": high}
+    assert channels[1]["window"] == {"min": 7, "max": 60000, "start": 7, "end": 60000}
+    assert file_io.read_metadata(out).channel_names == ("dapi", "gfp")
+
+
+def test_a_constant_channel_gets_a_window_napari_accepts(tmp_path):
+    pytest.importorskip("ome_zarr")
+    image = np.zeros((2, 40, 50), np.float32)
+    image[1] = np.nan
+    image[1, 0, 0] = 0.5
+    out = file_io.write_array(tmp_path / "out.zarr", image, metadata=_metadata(axes="CYX"))
+    windows = [channel["window"] for channel in _attributes(out)["ome"]["omero"]["channels"]]
+    assert windows == [
+        {"min": 0.0, "max": 0.0, "start": 0.0, "end": 1.0},
+        {"min": 0.5, "max": 0.5, "start": 0.5, "end": 1.5},
+    ]
+
+
+@pytest.mark.parametrize("axes,names", [("CZYX", ("dapi", "gfp")), ("CZYX", ()), ("ZYX", ("x",))])
+def test_an_output_is_a_valid_ome_zarr_image(tmp_path, axes, names):
+    models = pytest.importorskip("ome_zarr_models.v05")
+    image = _image() if axes.startswith("C") else _image()[0]
+    metadata = _metadata(axes=axes, channel_names=names)
+    out = file_io.write_array(tmp_path / "out.zarr", image, metadata=metadata)
+    import zarr
+
+    models.Image.from_zarr(zarr.open_group(out, mode="r"))  # raises if it is not
+    if names:  # the (transitional) omero metadata, which the image's model leaves out
+        from ome_zarr_models.common.omero import Omero
+
+        Omero.model_validate(_attributes(out)["ome"]["omero"])
 
 
 def test_without_ome_zarr_the_output_keeps_one_level_and_its_metadata(tmp_path, monkeypatch):

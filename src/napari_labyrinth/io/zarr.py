@@ -45,6 +45,10 @@ from .metadata import (
     time_pair,
 )
 
+#: The colour of every channel of an OME-Zarr output (its ``omero`` metadata need one):
+#: white, the package keeping no channel colours.
+_CHANNEL_COLOUR = "FFFFFF"
+
 #: OME-Zarr axis type of each axis letter (letters not here get no type).
 _OME_ZARR_TYPES = {"T": "time", "C": "channel", "Z": "space", "Y": "space", "X": "space"}
 
@@ -243,8 +247,16 @@ def _zarr_attributes(shape: Sequence[int], metadata: ImageMetadata | None) -> tu
     if metadata.image_name is not None:
         attributes["ome"]["multiscales"][0]["name"] = metadata.image_name
     if names := named_channels(metadata, shape):
-        attributes["ome"]["omero"] = {"channels": [{"label": name} for name in names]}
+        attributes["ome"]["omero"] = {
+            "channels": [{"label": name, "color": _CHANNEL_COLOUR} for name in names]
+        }  # each channel's window once its values are written (_write_lower_levels)
     return attributes, "0"
+
+
+def _dimension_names(ome: dict) -> list[str]:
+    """The dimension names of an OME-Zarr image's arrays: its axes' names, as OME-Zarr 0.5
+    requires."""
+    return [entry["name"] for entry in ome["multiscales"][0]["axes"]]
 
 
 def _open_zarr_array(path: Path):
@@ -311,14 +323,16 @@ def _create_zarr_array(zarr, directory: str, array, chunks, metadata, values) ->
     """
     store = directory
     attributes, component = _zarr_attributes(array.shape, metadata)
-    group = None
+    group, names = None, None
     if component:
         group = zarr.open_group(store=store, mode="w")
         group.attrs.update(attributes)
         store = os.path.join(store, component)
+        names = _dimension_names(attributes["ome"])
     target = zarr.create_array(
-        store=store, shape=array.shape, chunks=chunks, dtype=array.dtype, fill_value=0
-    )
+        store=store, shape=array.shape, chunks=chunks, dtype=array.dtype, fill_value=0,
+        dimension_names=names,
+    )  # fmt: skip
     if not component:
         target.attrs.update(attributes)
     if values is not None:
@@ -350,17 +364,25 @@ def _write_lower_levels(zarr, group, full, chunks, ome: dict, rows: int | None =
     ``write_multiscale`` names its levels ``s0``, ``s1``, ... and computes them through
     dask's default scheduler (a cluster's, if one is set): the arrays are written here, the
     metadata by ``write_multiscales_metadata``, which checks them against the specification.
+    Each named channel (``omero``) gets the range of its values at the full level as its
+    window, read as the first lower level is made (or on its own where there is none).
     """
     try:  # optional: without ome-zarr, one level
         from ome_zarr.format import FormatV05
         from ome_zarr.writer import write_multiscales_metadata
     except ImportError:
-        return
+        write_multiscales_metadata = None
     multiscale = ome["multiscales"][0]
     axes = multiscale["axes"]
     planar = [axis for axis, entry in enumerate(axes) if entry["name"] in ("y", "x")]
     scale = multiscale["datasets"][0]["coordinateTransformations"][0]["scale"]
-    count, above = level_count(full.shape, planar), full
+    ranges = _ChannelRanges(axes) if "omero" in ome else None
+    count = level_count(full.shape, planar) if write_multiscales_metadata is not None else 1
+    if ranges is not None and count == 1:
+        for where in plane_slices(full.shape, planar):
+            for part, _ in _halved_parts(full, where, planar[0], rows):
+                ranges.add(where, part)
+    above = full
     for number in range(1, count):
         shape = halved_shape(above.shape, planar)
         plane_chunks = tuple(
@@ -370,14 +392,25 @@ def _write_lower_levels(zarr, group, full, chunks, ome: dict, rows: int | None =
         level = _waited_for(
             functools.partial(
                 group.create_array, str(number), shape=shape, chunks=plane_chunks,
-                dtype=full.dtype, fill_value=0,
+                dtype=full.dtype, fill_value=0, dimension_names=_dimension_names(ome),
             )
         )  # fmt: skip
         for where in plane_slices(shape, planar):
             for part, halved_part in _halved_parts(above, where, planar[0], rows):
+                if ranges is not None and number == 1:
+                    ranges.add(where, part)
                 # each part's write waited for: Ctrl-C stops the pass within a plane
                 _waited_for(level.__setitem__, halved_part, halved(part, range(part.ndim)))
         above = level
+    if ranges is not None:
+        channels = ome["omero"]["channels"]
+        windows = ranges.windows(len(channels))
+        omero = {"channels": [dict(c, window=w) for c, w in zip(channels, windows, strict=True)]}
+        ome = dict(ome, omero=omero)
+    if write_multiscales_metadata is None:
+        if ranges is not None:
+            _waited_for(group.attrs.__setitem__, "ome", ome)
+        return
     datasets = []
     for number in range(count):
         factors = [2**number if axis in planar else 1 for axis in range(full.ndim)]
@@ -396,6 +429,45 @@ def _write_lower_levels(zarr, group, full, chunks, ome: dict, rows: int | None =
             {k: v for k, v in attributes["multiscales"][0].items() if k != "name"}
         ]
         _waited_for(group.attrs.__setitem__, "ome", attributes)
+
+
+class _ChannelRanges:
+    """The least and the greatest finite value of each channel of an image (along its
+    ``channel`` axis; one channel without one), gathered plane by plane."""
+
+    def __init__(self, axes: Sequence[dict]) -> None:
+        types = [entry.get("type") for entry in axes]
+        self.axis = types.index("channel") if "channel" in types else None
+        self.found: dict[int, tuple[Any, Any]] = {}
+
+    def add(self, where: tuple[Any, ...], part: np.ndarray) -> None:
+        """Count ``part``, a part of the plane at ``where`` (its channel's position an int)."""
+        channel = 0 if self.axis is None else int(where[self.axis])
+        values = np.abs(part) if part.dtype.kind == "c" else part
+        if values.dtype.kind == "f":
+            values = values[np.isfinite(values)]
+        if values.size == 0:
+            return
+        low, high = values.min(), values.max()
+        if channel in self.found:
+            low, high = min(low, self.found[channel][0]), max(high, self.found[channel][1])
+        self.found[channel] = (low, high)
+
+    def windows(self, count: int) -> list[dict[str, float]]:
+        """The ``omero`` window of each of ``count`` channels: its range, shown from its least
+        to its greatest value (a constant channel: up to one more, as a viewer needs a
+        range; one without a finite value: from 0)."""
+        windows = []
+        for channel in range(count):
+            low, high = (_json_number(v) for v in self.found.get(channel, (0, 0)))
+            end = high if high > low else low + 1
+            windows.append({"min": low, "max": high, "start": low, "end": end})
+        return windows
+
+
+def _json_number(value) -> int | float:
+    """A numpy scalar as the Python int or float JSON writes."""
+    return int(value) if np.asarray(value).dtype.kind in "biu" else float(value)
 
 
 def _halved_parts(above, where, row_axis: int, rows: int | None):
