@@ -12,7 +12,7 @@ pytest.importorskip("pytestqt")
 
 from napari_labyrinth import _warmup
 from napari_labyrinth._qt import warm_up as warm_up_module
-from napari_labyrinth._qt.warm_up import PREPARING
+from napari_labyrinth._qt.warm_up import PREPARING, WarmUp
 
 from .helpers import RUN_TIMEOUT_MS, noise
 
@@ -52,6 +52,22 @@ def slow_warm_up(monkeypatch, tmp_path):
             (tmp_path / f"release{step}").write_text("")
 
     return commands, release
+
+#: A stand-in whose lines each arrive in two writes: the text, then its end of line.
+_SPLIT_WARM_UP = """
+import os, sys, time
+def say(line):
+    for part in (line, "\\n"):
+        sys.stdout.write(part)
+        sys.stdout.flush()
+        time.sleep(0.2)
+say("step 1 of 2: the render of uint8 images")
+say("kernel stream_key")
+while not os.path.exists(sys.argv[1]):
+    time.sleep(0.05)
+say("step 2 of 2: the metrics of a stack")
+say("done")
+"""
 
 
 def _open_widget(viewer):
@@ -153,6 +169,48 @@ def test_one_warm_up_a_session_and_none_when_disabled(qtbot, viewer, slow_warm_u
     monkeypatch.setenv(_warmup.DISABLE_VARIABLE, "1")
     assert not _open_widget(viewer).warm_up.running
     assert len(commands) == 1
+
+
+def test_the_reader_handles_whole_lines_however_the_reads_split_them(qtbot):
+    lines, ends = [], []
+    warm_up = WarmUp(lines.append, lambda: ends.append(True))
+    for chunk in (b"step 1 of 2: the ren", b"der of uint8 images\n", b"kernel stream_key",
+                  b"\n", b"\n", b"kernel \xc3", b"\xa9t\xc3\xa9\r\n", b"done"):
+        warm_up.feed(chunk)
+    assert lines == ["step 1 of 2: the render of uint8 images", "kernel stream_key",
+                     "kernel \u00e9t\u00e9"]
+    assert warm_up.step == "step 1 of 2, the render of uint8 images"
+    assert warm_up.steps_done == 0
+    warm_up.feed(b"", end=True)  # the process ended: what it printed last is a line too
+    assert lines[-1] == "done"
+    warm_up.feed(b"", end=True)
+    assert lines.count("done") == 1
+
+
+@pytest.mark.subprocess
+def test_the_status_names_the_kernel_when_the_lines_arrive_split(
+    qtbot, viewer, slow_warm_up, tmp_path
+):
+    commands, release = slow_warm_up
+    (tmp_path / "warm_up.py").write_text(_SPLIT_WARM_UP)
+    viewer.add_image(noise((64, 64)), name="cells")
+    widget = _open_widget(viewer)
+    assert widget.run() is not None
+    seen = []
+
+    def names_the_kernel():
+        seen.append(widget.status.value)
+        assert "compiling stream_key" in widget.status.value, seen
+
+    qtbot.waitUntil(names_the_kernel, timeout=10_000)
+    qtbot.wait(500)  # the end of the kernel's line has arrived: the status still names it
+    assert widget.status.value == (
+        f"{PREPARING} (step 1 of 2, the render of uint8 images: compiling stream_key) …"
+    )
+    assert not any("()" in status or "( " in status for status in seen)
+    (tmp_path / "release").write_text("")
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    assert len(viewer.layers) == 2
 
 
 def _alive(pid: int) -> bool:

@@ -40,6 +40,8 @@ class WarmUp(QObject):
         self._on_line = on_line
         self._on_end = on_end
         self._process: QProcess | None = None
+        #: What the process printed after its last complete line: a read can end mid-line.
+        self._partial = b""
         self.step = ""
         #: Steps the process has finished (each is a kind of run: the render, the metrics).
         self.steps_done = 0
@@ -77,8 +79,24 @@ class WarmUp(QObject):
     def _read(self) -> None:
         if self._process is None:
             return
-        text = bytes(self._process.readAllStandardOutput()).decode(errors="replace")
-        for line in text.splitlines():
+        self.feed(bytes(self._process.readAllStandardOutput()))
+
+    def feed(self, data: bytes, *, end: bool = False) -> None:
+        """Take what the process printed, as a read returned it: the lines it completes are
+        handled, each once and whole; the rest waits for the next read (``end``: the process
+        has ended, and the rest is a line too). Empty lines are skipped."""
+        data = self._partial + data
+        if end:
+            complete, self._partial = data, b""
+        else:
+            complete, newline, rest = data.rpartition(b"\n")
+            self._partial = rest
+            if not newline:
+                return
+        for line in complete.decode(errors="replace").splitlines():
+            line = line.strip()
+            if not line:
+                continue
             if line.startswith("step "):  # step K of N: what
                 self.step = line.replace(": ", ", ", 1)
                 self.steps_done = int(line.split()[1]) - 1
@@ -90,6 +108,7 @@ class WarmUp(QObject):
 
     def _ended(self, *_args) -> None:
         self._read()
+        self.feed(b"", end=True)
         self._process = None
         self._on_end()
 
