@@ -21,9 +21,18 @@ from napari_labyrinth._qt.widget import LabyrinthWidget
 from napari_labyrinth.core import presets
 from napari_labyrinth.widget.choices import CURRENT_PLANE
 from napari_labyrinth.widget.layer_kwargs import METADATA_KEY
+from napari_labyrinth.widget.text import default_sweep_text
 
 from ..widget.plan_helpers import counting_lazy
-from .helpers import grid_squares, labyrinth_docks, noise, reproduce, result_data, run
+from .helpers import (
+    RUN_TIMEOUT_MS,
+    grid_squares,
+    labyrinth_docks,
+    noise,
+    reproduce,
+    result_data,
+    run,
+)
 
 # -- opening, choices, presets -----------------------------------------------------------------
 
@@ -192,6 +201,42 @@ def test_a_seed_sweep_renders_one_plane_per_seed(qtbot, viewer, widget):
     assert result.metadata[METADATA_KEY]["description"].startswith("cell · sweep seed 0, 1, 2")
     np.testing.assert_array_equal(result.data, reproduce(result, data))
     np.testing.assert_array_equal(result.data[2], api.labyrinth(data, seed=2))
+
+
+def test_the_sweep_values_follow_v_until_the_user_types_their_own(qtbot, viewer, widget):
+    data = noise((32, 32))
+    viewer.add_image(data, name="cell", contrast_limits=(0, 255))
+    widget.fields["variance_threshold"].value = 0.01  # typed, or set by Auto
+    widget.mode.value = "sweep"
+    assert widget.sweep_parameter.value == "variance_threshold"
+    assert widget.sweep_values.value == "0, 0.01, 0.03"
+    run(qtbot, widget)
+    description = viewer.layers[-1].metadata[METADATA_KEY]["description"]
+    assert description.startswith("cell · sweep variance_threshold 0, 0.01, 0.03 · ")
+
+    widget.preset.value = "paper"  # its V, 0.5: Fig. 3's values
+    assert widget.sweep_values.value == "0.47, 0.5, 0.53"
+    widget.sweep_values.native.clear()
+    qtbot.keyClicks(widget.sweep_values.native, "0.3, 0.6")  # the user's own values stay
+    widget.fields["variance_threshold"].value = 0.2
+    widget.preset.value = presets.DEFAULT_PRESET
+    assert widget.sweep_values.value == "0.3, 0.6"
+    widget.sweep_parameter.value = "passes"  # another parameter: its own proposal
+    assert widget.sweep_values.value == "1, 2, 4, 8"
+    widget.sweep_parameter.value = "variance_threshold"
+    current = widget.fields["variance_threshold"].value
+    assert widget.sweep_values.value == default_sweep_text("variance_threshold", current)
+
+
+def test_auto_v_moves_the_proposed_sweep_values(qtbot, viewer, widget):
+    viewer.add_image(noise((48, 48)), name="cell", contrast_limits=(0, 255))
+    widget.mode.value = "sweep"
+    worker = widget.auto_window.find(start=False)
+    with qtbot.waitSignal(worker.finished, timeout=RUN_TIMEOUT_MS):
+        worker.start()
+    best = widget.fields["variance_threshold"].value
+    assert best == widget.auto_window.window.best
+    assert widget.sweep_values.value == default_sweep_text("variance_threshold", best)
 
 
 @pytest.mark.parametrize(

@@ -90,6 +90,8 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         One of ``MODES``.
     sweep_parameter : magicgui.widgets.ComboBox
     sweep_values : magicgui.widgets.LineEdit
+        Values proposed around the swept parameter's field (``default_sweep_text``), which
+        follow the field until the user edits them.
     run_button, cancel_button, compare_button : magicgui.widgets.PushButton
     status : magicgui.widgets.Label
     metrics_table : QTableWidget
@@ -203,8 +205,12 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
             tooltip="Parameter varied by a sweep (Fig. 3 varies V of Eq. 4).",
         )
         self.sweep_values = LineEdit(
-            label="values", tooltip="Values of the swept parameter, e.g. 0.47, 0.50, 0.53."
+            label="values",
+            tooltip="Values of the swept parameter; proposed around its field's value, "
+            "which they follow until you edit them.",
         )
+        self._proposing = False  # the values are being set to the proposal, not edited
+        self._sweep_edited = False  # the user has typed values of their own
         self.run_button = PushButton(text="Run", tooltip="Render in the background.")
         self.cancel_button = PushButton(
             text="Cancel", tooltip="Stop at the next plane or pass; no layer is added."
@@ -254,6 +260,9 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
         )
         self.mode.changed.connect(self._on_mode_changed)
         self.sweep_parameter.changed.connect(self._on_sweep_parameter)
+        self.sweep_values.changed.connect(self._on_sweep_values_edited)
+        for widget in (*self.fields.values(), self.seed):  # Auto V, typed, a preset
+            widget.changed.connect(self._propose_sweep_values)
         self.run_button.changed.connect(self.run)
         self.cancel_button.changed.connect(self.cancel)
         self.compare_button.changed.connect(self.toggle_compare)
@@ -313,7 +322,7 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
     def _apply_preset(self, name: str) -> None:
         """Fill every parameter field from preset ``name``."""
         self.form.apply_preset(name)
-        self._on_sweep_parameter(self.sweep_parameter.value)
+        self._propose_sweep_values()
 
     def overrides(self) -> dict[str, Any]:
         """The fields whose value differs from the chosen preset's (parameter name -> value)."""
@@ -346,8 +355,28 @@ class LabyrinthWidget(ClosesWithItsDock, QWidget):
     def _say(self, text: str) -> None:
         self.status.value = text
 
-    def _on_sweep_parameter(self, parameter: str) -> None:
-        self.sweep_values.value = default_sweep_text(parameter, self.form.value(parameter))
+    def _on_sweep_parameter(self, *_args) -> None:
+        """Another parameter is swept: the values typed for the last one are not its own."""
+        self._sweep_edited = False
+        self._propose_sweep_values()
+
+    def _propose_sweep_values(self, *_args) -> None:
+        """Propose the sweep's values around the swept field's value, unless the user has
+        typed values of their own."""
+        if self._sweep_edited:
+            return
+        parameter = self.sweep_parameter.value
+        text = default_sweep_text(parameter, self.form.value(parameter))
+        if self.sweep_values.value != text:
+            self._proposing = True
+            try:
+                self.sweep_values.value = text
+            finally:
+                self._proposing = False
+
+    def _on_sweep_values_edited(self, *_args) -> None:
+        if not self._proposing:
+            self._sweep_edited = True
 
     def choices(self) -> Choices:
         """The user's choices, as plain values."""
