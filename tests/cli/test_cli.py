@@ -217,6 +217,24 @@ def test_several_inputs_into_a_new_directory(tmp_path, capsys):
     assert leftovers(tmp_path) == []
 
 
+@pytest.mark.parametrize("name", ["two.png", "two.TIF", "two.ome.tiff", "two.jpg", "two.bmp"])
+def test_several_inputs_into_an_image_file_name_are_refused(tmp_path, capsys, name):
+    # -o two.png made a directory two.png holding both results
+    for stem in ("a", "b"):
+        write_image(tmp_path / f"{stem}.png", gradient_image(np.uint8))
+    output = tmp_path / name
+    argv = ["render", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "-o", str(output)]
+    assert main([*argv, *OPTIONS]) == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert f"-o {output}:" in line and "several inputs need an output directory" in line
+    assert "image file" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "b.png"]
+    # a directory of that name, or one named with a final /, is what the user asks for
+    assert main([*argv[:-1], f"{output}/", *OPTIONS]) == 0
+    assert sorted(os.listdir(output)) == ["a_labyrinth.png", "b_labyrinth.png"]
+    assert main([*argv, "--overwrite", *OPTIONS]) == 0
+
+
 @pytest.mark.parametrize("passes", [None, 3])
 def test_stack(tmp_path, passes):
     image = gradient_image(np.uint8)

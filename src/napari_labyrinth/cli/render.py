@@ -31,6 +31,7 @@ from ..core.parameters import is_auto, without_auto
 from ..core.planes import plane_axes
 from ..core.presets import DEFAULT_PRESET, resolve_parameters
 from ..io import (
+    FORMATS,
     FORMATS_WITHOUT_METADATA,
     LOSSY_FORMATS,
     ImageFileError,
@@ -276,14 +277,10 @@ def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
     output = Path(args.output)
     variant = "stack" if args.stack else "sweep" if args.sweep is not None else None
     to_zarr = output.suffix.lower() == ".zarr"
-    if to_zarr and len(inputs) > 1:
-        raise UsageError(f"{output}: several inputs need an output directory, not a zarr store")
-    as_directory = not to_zarr and (
-        len(inputs) > 1
-        or output.is_dir()
-        or args.output.endswith(("/", os.sep))
-        or output.suffix == ""
-    )
+    named_directory = output.is_dir() or args.output.endswith(("/", os.sep))
+    if len(inputs) > 1:
+        _check_names_a_directory(output, to_zarr, named_directory)
+    as_directory = not to_zarr and (len(inputs) > 1 or named_directory or output.suffix == "")
     if not as_directory:
         try:
             kind = image_format(output)
@@ -317,6 +314,21 @@ def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:
         jobs.append(_Job(path, output / f"{stem}_labyrinth{tail}{suffix}"))
     _keep_apart(jobs)
     return jobs, output
+
+
+def _check_names_a_directory(output: Path, to_zarr: bool, named_directory: bool) -> None:
+    """Refuse an output of several inputs that names a file the package writes: a typo, not
+    a directory to create (``-o two.png`` made a directory ``two.png``). A directory that
+    exists, or a name ending with ``/``, is one."""
+    kind = FORMATS.get(output.suffix.lower())
+    if kind is None or (named_directory and not to_zarr):
+        return
+    what = "a zarr store" if to_zarr else f"an image file ({kind})"
+    stem, _ = _stem_and_suffix(output)
+    raise UsageError(
+        f"-o {output}: several inputs need an output directory, not {what}; "
+        f"name a directory, e.g. -o {output.with_name(stem)}{os.sep}"
+    )
 
 
 def _stem_and_suffix(path: Path) -> tuple[str, str]:
