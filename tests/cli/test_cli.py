@@ -518,6 +518,71 @@ def test_float_result_cannot_go_to_png(tmp_path, capsys):
     assert leftovers(tmp_path) == [] and not (tmp_path / "out.png").exists()
 
 
+def _refuses_new_files(directory: Path) -> bool:
+    try:
+        with open(directory / ".probe", "x"):
+            pass
+    except OSError:
+        return True
+    os.unlink(directory / ".probe")
+    return False
+
+
+@pytest.mark.skipif(
+    not os.path.isdir("/proc") or not _refuses_new_files(Path("/proc")),
+    reason="no /proc that refuses new files",
+)
+@pytest.mark.parametrize("name", ["x.png", "x.tif", "x.zarr", "x.bmp"])
+def test_an_output_that_cannot_be_written_is_named_with_the_reason(tmp_path, capsys, name):
+    # said "a.png: No such file or directory: /proc/.x.png.0a7c9c-18609-5ef55aa3.tmp"
+    write_image(tmp_path / "a.png", gradient_image(np.uint8))
+    output = f"/proc/{name}"
+    assert main(["render", str(tmp_path / "a.png"), "-o", output, "--passes", "1"]) == 1
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line == f"napari-labyrinth: error: cannot write {output}: No such file or directory"
+
+
+def test_an_output_directory_that_takes_no_file_is_named(tmp_path, capsys, monkeypatch):
+    from napari_labyrinth import io as file_io
+
+    write_image(tmp_path / "a.png", gradient_image(np.uint8))
+    read_only = tmp_path / "read-only"
+    read_only.mkdir()
+    argv = ["render", str(tmp_path / "a.png"), "-o", str(read_only / "x.png"), "--passes", "1"]
+    if sys.platform != "win32":
+        read_only.chmod(0o555)
+    try:
+        if not _refuses_new_files(read_only):  # root writes there: as a read-only mount
+            monkeypatch.setattr(file_io.os, "access", lambda path, mode: False)
+        assert main(argv) == 1
+    finally:
+        read_only.chmod(0o755)
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith(f"napari-labyrinth: error: cannot write {read_only / 'x.png'}: ")
+    assert line.count("x.png") == 1 and ".tmp" not in line and "a.png" not in line
+    assert os.listdir(read_only) == []
+
+
+def test_a_write_that_fails_names_the_output_not_the_input(tmp_path, capsys, monkeypatch):
+    from napari_labyrinth.io import _atomic
+
+    write_image(tmp_path / "a.png", gradient_image(np.uint8))
+    real = _atomic.create_temporary
+
+    def full(directory, name, made):
+        temporary, handle = real(directory, name, made)
+        handle.close()
+        raise OSError(28, "No space left on device", str(temporary))
+
+    monkeypatch.setattr(_atomic, "create_temporary", full)
+    monkeypatch.setattr("napari_labyrinth.io.create_temporary", full)
+    output = tmp_path / "out" / "a_labyrinth.png"
+    assert main(["render", str(tmp_path / "a.png"), "-o", str(output), "--passes", "1"]) == 1
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line == f"napari-labyrinth: error: cannot write {output}: No space left on device"
+    assert leftovers(tmp_path) == []
+
+
 def test_version(capsys):
     assert main(["--version"]) == 0
     assert capsys.readouterr().out.strip() == f"napari-labyrinth {__version__}"

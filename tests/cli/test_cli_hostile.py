@@ -437,8 +437,9 @@ def test_check_output_refuses_as_the_writer_would(tmp_path, monkeypatch):
     with pytest.raises(FileExistsError):
         check_output(tmp_path / "there.tif", (8, 8), np.uint8, overwrite=False)
     monkeypatch.setattr(io.os, "access", lambda path, mode: False)  # a read-only mount
-    with pytest.raises(ImageFileError, match="its directory takes no new file"):
+    with pytest.raises(PermissionError, match="its directory takes no new file") as raised:
         check_output(tmp_path / "x.tif", (8, 8), np.uint8, overwrite=False)
+    assert raised.value.filename == str(tmp_path / "x.tif")  # as the writer's error
 
 
 class _InterruptedFinaliser:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -430,3 +431,79 @@ def test_release_files_closes_the_tiffs_opened_lazily(tmp_path, monkeypatch):
         file_io.release_files()
         gc.collect()
     assert [w for w in caught if issubclass(w.category, ResourceWarning)] == []
+
+
+# -- a destination that cannot be written: the error names it, never the temporary -------------
+
+
+def _cannot_create_in(directory: Path) -> bool:
+    """Whether a file cannot be created in ``directory`` (root writes where chmod forbids)."""
+    try:
+        with open(directory / ".probe", "x"):
+            pass
+    except OSError:
+        return True
+    os.unlink(directory / ".probe")
+    return False
+
+
+@pytest.fixture(params=["under a file", "/proc", "read-only"])
+def unwritable(request, tmp_path):
+    """A directory no file can be created in: a path under a regular file (ENOTDIR, even for
+    root), /proc, or a directory made read-only (not for root)."""
+    if request.param == "under a file":
+        (tmp_path / "file").write_bytes(b"")
+        return tmp_path / "file"
+    if request.param == "/proc":
+        if not os.path.isdir("/proc") or not _cannot_create_in(Path("/proc")):
+            pytest.skip("no /proc that refuses new files")
+        return Path("/proc")
+    if sys.platform == "win32":
+        pytest.skip("POSIX permissions")
+    directory = tmp_path / "read-only"
+    directory.mkdir()
+    directory.chmod(0o555)
+    request.addfinalizer(lambda: directory.chmod(0o755))
+    if not _cannot_create_in(directory):
+        pytest.skip("this user writes in a read-only directory (root)")
+    return directory
+
+
+def _write_bands(path, plane):
+    from napari_labyrinth.io.bands import plane_bands_written
+
+    with plane_bands_written(path, plane.shape, plane.dtype, 4) as write:
+        write(0, plane[:4])
+        write(4, plane[4:])
+
+
+def _lazy(plane):
+    import dask.array as da
+
+    return da.from_array(np.stack([plane, plane]), chunks=(1, 8, 8))
+
+
+WRITES = {
+    "png": lambda directory, plane: write_image(directory / "out.png", plane),
+    "tif": lambda directory, plane: write_image(directory / "out.tif", plane),
+    "jpg": lambda directory, plane: write_image(directory / "out.jpg", plane),
+    "bmp": lambda directory, plane: write_image(directory / "out.bmp", plane),
+    "zarr": lambda directory, plane: file_io.write_array(directory / "out.zarr", plane),
+    "lazy tif": lambda directory, plane: file_io.write_array(directory / "out.tif", _lazy(plane)),
+    "lazy zarr": lambda d, plane: file_io.write_array(d / "out.zarr", _lazy(plane)),
+    "bands tif": lambda directory, plane: _write_bands(directory / "out.tif", plane),
+    "bands zarr": lambda directory, plane: _write_bands(directory / "out.zarr", plane),
+}
+
+
+@pytest.mark.parametrize("write", WRITES.values(), ids=WRITES.keys())
+def test_an_unwritable_destination_is_named_not_its_temporary(unwritable, write):
+    # /proc/x.png said "No such file or directory: /proc/.x.png.0a7c9c-1234-5ef55aa3.tmp"
+    plane = RNG.integers(0, 256, (8, 8), dtype=np.uint8)
+    with pytest.raises(OSError) as raised:
+        write(unwritable, plane)
+    error = raised.value
+    assert Path(error.filename).parent == unwritable and error.filename2 is None
+    assert Path(error.filename).name.startswith("out.")
+    assert error.strerror and error.strerror in str(error)
+    assert ".tmp" not in str(error) and ".out." not in str(error)

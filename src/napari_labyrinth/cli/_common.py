@@ -48,6 +48,7 @@ __all__ = [
     "Failed",
     "Refused",
     "UsageError",
+    "cannot_write",
     "describe",
     "interrupting_signal",
     "interrupts_recorded",
@@ -110,6 +111,21 @@ def describe(exc: BaseException, path: Path | str) -> str:
     text = one_line(str(exc)) or type(exc).__name__
     prefix = f"{path}: "
     return text.removeprefix(prefix)
+
+
+def cannot_write(exc: BaseException, output: Path | str) -> str | None:
+    """``cannot write OUTPUT: reason`` for an ``OSError`` of writing ``output``, or None.
+
+    The writers of :mod:`napari_labyrinth.io` raise such an error naming the
+    destination, never its hidden temporary; it is about the output, not the input.
+    """
+    if not isinstance(exc, OSError) or not exc.strerror or exc.filename is None:
+        return None
+    if not isinstance(exc.filename, (str, bytes, os.PathLike)):  # a file descriptor
+        return None
+    if path_key(Path(os.fsdecode(exc.filename))) != path_key(Path(output)):
+        return None
+    return one_line(f"cannot write {output}: {exc.strerror}")
 
 
 def one_line(text: str) -> str:

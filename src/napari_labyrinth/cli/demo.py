@@ -17,6 +17,7 @@ from ._common import (
     EXIT_OK,
     Refused,
     UsageError,
+    cannot_write,
     describe,
     make_directory,
     print_error,
@@ -100,7 +101,7 @@ def _write(path: Path, data, record, overwrite: bool) -> bool:
     try:
         write_image(path, data, overwrite=overwrite, metadata=ImageMetadata(provenance=record))
     except (OSError, ValueError) as exc:
-        print_error(f"{path}: {describe(exc, path)}")
+        print_error(cannot_write(exc, path) or f"{path}: {describe(exc, path)}")
         return False
     print_output(str(path.resolve()))
     return True

@@ -57,6 +57,7 @@ from ._common import (
     Failed,
     Refused,
     UsageError,
+    cannot_write,
     describe,
     make_directory,
     path_key,
@@ -246,7 +247,7 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
                 _render_one(job, args, options, progress)
             except Exception as exc:  # noqa: BLE001 - one file's failure never stops a batch
                 failed.append(job.input)
-                tqdm.write(f"{PROG}: error: {job.input}: {_failure(exc, job)}", file=sys.stderr)
+                tqdm.write(f"{PROG}: error: {_failure(exc, job)}", file=sys.stderr)
             else:
                 rendered.append(job.output)
                 with tqdm.external_write_mode(file=sys.stdout):  # the bars cleared first
@@ -260,10 +261,15 @@ def _render_jobs(jobs: list[_Job], args: argparse.Namespace, options: dict[str, 
 
 
 def _failure(exc: Exception, job: _Job) -> str:
-    """One line for a file that failed; errors nobody foresaw also name their type."""
+    """One line for a file that failed: the output's path and why it cannot be written, or
+    the input's path and what went wrong; errors nobody foresaw also name their type."""
+    if job.output is not None and (line := cannot_write(exc, job.output)) is not None:
+        return line
     text = describe(exc, job.input)
     foreseen = (_FileError, OSError, ValueError, TypeError, MemoryError, ComputeError)
-    return text if isinstance(exc, foreseen) else f"{type(exc).__name__}: {text}"
+    if not isinstance(exc, foreseen):
+        text = f"{type(exc).__name__}: {text}"
+    return f"{job.input}: {text}"
 
 
 def _plan(args: argparse.Namespace) -> tuple[list[_Job], Path | None]:

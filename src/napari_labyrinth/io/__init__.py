@@ -35,6 +35,7 @@ writes, :mod:`._arrays` byte order and blocks, :mod:`._errors` the error.
 
 from __future__ import annotations
 
+import errno
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -448,11 +449,12 @@ def check_output(
     ------
     ImageFileError
         For a format that cannot store such an array (or its extra samples),
-        a directory at ``path`` (but a zarr store: its writer decides), or an
-        existing directory it cannot write into (no permission, a read-only
-        file system).
+        or a directory at ``path`` (but a zarr store: its writer decides).
     FileExistsError
         If a file is at ``path`` (not a zarr store) and ``overwrite`` is False.
+    PermissionError
+        If ``path``'s directory exists and takes no new file (no permission,
+        a read-only file system): an ``OSError`` of ``path``, as the writer's.
     """
     path = Path(path)
     kind = image_format(path)
@@ -463,10 +465,10 @@ def check_output(
         check_writable(path, kind, placeholder, overwrite, metadata)
     parent = path.parent
     if parent.is_dir() and not os.access(parent, os.W_OK):
-        raise ImageFileError(
-            path,
-            f"cannot write {path}: its directory takes no new file (no permission, or a "
-            "read-only file system)",
+        raise PermissionError(
+            errno.EACCES,
+            "its directory takes no new file (no permission, or a read-only file system)",
+            str(path),
         )
 
 

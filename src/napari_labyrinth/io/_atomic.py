@@ -6,7 +6,10 @@ zarr store) make the temporary, :func:`published` and
 :func:`publish_directory` give it the destination's name without clobbering
 anything that appeared meanwhile (unless overwriting). On a failure or
 Ctrl-C the temporary is removed (by :func:`published`; by the zarr writer for
-a directory): each is recorded in ``made`` before it exists.
+a directory): each is recorded in ``made`` before it exists. An ``OSError``
+of the temporary (it cannot be created, written or renamed) is raised as one
+of the destination (:func:`named_after_destination`): the user named that
+path, never the temporary.
 
 Only a process killed outright (SIGKILL, a power cut) leaves a temporary
 behind. Each temporary is therefore named after the process that writes
@@ -47,6 +50,45 @@ class StaleTemporaryWarning(UserWarning):
     """A hidden temporary of an interrupted write that could not be attributed."""
 
 
+#: Errors a write of any file gives, whether or not the error names it.
+_WRITE_ERRNOS = frozenset(
+    getattr(errno, name) for name in ("ENOSPC", "EDQUOT", "EFBIG", "EROFS") if hasattr(errno, name)
+)
+
+
+@contextlib.contextmanager
+def named_after_destination(path: Path, made: list[Path]):
+    """Raise an ``OSError`` of the temporaries in ``made`` (or of a file inside one: a zarr
+    store's chunk) as the same error of ``path``: ``filename`` is the destination.
+
+    ``/proc/x.png`` said "No such file or directory: /proc/.x.png.0a7c9c-1234-5ef55aa3.tmp",
+    a name the caller never gave. An error naming no file is the destination's when only
+    a write gives it (no space, a read-only file system); one naming another file (an
+    input read while the output is written) is left as it is.
+    """
+    try:
+        yield
+    except OSError as exc:
+        if exc.errno is None or not _of_temporaries(exc, made):
+            raise
+        raise OSError(exc.errno, exc.strerror, str(path)) from exc
+
+
+def _of_temporaries(exc: OSError, made: list[Path]) -> bool:
+    """Whether ``exc`` is about one of the temporaries ``made`` (or a file inside one)."""
+    names = [name for name in (exc.filename, exc.filename2) if name is not None]
+    if not names:
+        return exc.errno in _WRITE_ERRNOS
+    temporaries = [os.path.abspath(temporary) for temporary in made]
+    for name in names:
+        if not isinstance(name, (str, bytes, os.PathLike)):  # a file descriptor
+            continue
+        name = os.path.abspath(os.fsdecode(name))
+        if any(name == t or name.startswith(t + os.sep) for t in temporaries):
+            return True
+    return False
+
+
 @contextlib.contextmanager
 def published(made: list[Path], path: Path, *, overwrite: bool):
     """Move the temporary file the block makes (:func:`create_temporary`, into ``made``) to
@@ -55,19 +97,21 @@ def published(made: list[Path], path: Path, *, overwrite: bool):
     The temporary is made inside the block, so that an interruption at any
     moment after it exists (Ctrl-C, SIGTERM) removes it. ``os.replace``
     with ``overwrite``; otherwise a hard link that refuses to clobber a file
-    created in the meantime.
+    created in the meantime. An error of the temporary is raised as ``path``'s
+    (:func:`named_after_destination`).
     """
-    try:
-        yield
-        if overwrite:
-            os.replace(made[-1], path)
-        else:
-            _link_no_clobber(made[-1], path)
-    except BaseException:
-        for temporary in made:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(temporary)
-        raise
+    with named_after_destination(path, made):
+        try:
+            yield
+            if overwrite:
+                os.replace(made[-1], path)
+            else:
+                _link_no_clobber(made[-1], path)
+        except BaseException:
+            for temporary in made:
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(temporary)
+            raise
 
 
 def create_temporary(directory: Path, name: str, made: list[Path]):

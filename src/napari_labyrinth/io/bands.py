@@ -23,7 +23,7 @@ import numpy as np
 
 from .._budget import MEMORY_ENV, declared, memory_limit
 from ._arrays import native
-from ._atomic import create_temporary_directory, publish_directory
+from ._atomic import create_temporary_directory, named_after_destination, publish_directory
 from ._errors import ImageFileError, require_file
 from ._formats import check_storable, check_writable, image_format, input_format, is_zarr_store
 from .metadata import ImageMetadata
@@ -246,23 +246,24 @@ def _zarr_written(path: Path, placeholder, rows: int, overwrite: bool, metadata)
 
     chunks = (min(rows, placeholder.shape[0]), placeholder.shape[1])
     made: list[Path] = []
-    try:
-        temporary = os.path.abspath(create_temporary_directory(path.parent, path.name, made))
-        store = zarr_io._waited_for(
-            zarr_io._create_zarr_array, zarr, temporary, placeholder, chunks, metadata, None
-        )
-        target = zarr_io._waited_for(lambda: zarr.open_array(store=store, mode="r+"))
+    with named_after_destination(path, made):  # the error names path, not the temporary
+        try:
+            temporary = os.path.abspath(create_temporary_directory(path.parent, path.name, made))
+            store = zarr_io._waited_for(
+                zarr_io._create_zarr_array, zarr, temporary, placeholder, chunks, metadata, None
+            )
+            target = zarr_io._waited_for(lambda: zarr.open_array(store=store, mode="r+"))
 
-        def write(start, values):
-            if not os.path.isdir(temporary):  # abandoned after a failure
-                raise FileNotFoundError(f"the output being written was removed: {temporary}")
-            zarr_io._waited_for(target.__setitem__, slice(start, start + len(values)), values)
+            def write(start, values):
+                if not os.path.isdir(temporary):  # abandoned after a failure
+                    raise FileNotFoundError(f"the output being written was removed: {temporary}")
+                zarr_io._waited_for(target.__setitem__, slice(start, start + len(values)), values)
 
-        yield write
-        if store != temporary:  # an OME-Zarr image: its lower levels, band by band
-            zarr_io._write_lower_levels_of(zarr, temporary, chunks, rows)
-        publish_directory(Path(temporary), path, overwrite=overwrite)
-    except BaseException:
-        for temporary in made:
-            shutil.rmtree(temporary, ignore_errors=True)
-        raise
+            yield write
+            if store != temporary:  # an OME-Zarr image: its lower levels, band by band
+                zarr_io._write_lower_levels_of(zarr, temporary, chunks, rows)
+            publish_directory(Path(temporary), path, overwrite=overwrite)
+        except BaseException:
+            for temporary in made:
+                shutil.rmtree(temporary, ignore_errors=True)
+            raise

@@ -30,7 +30,7 @@ from .._threads import start_helper, wait_through_interrupts
 from ..lazy import is_lazy, run_blocks
 from ..provenance import KEY
 from ._arrays import block_chunks, native, plane_count
-from ._atomic import create_temporary_directory, publish_directory
+from ._atomic import create_temporary_directory, named_after_destination, publish_directory
 from ._errors import ImageFileError, reason_of, refuse_unaffordable_file
 from ._formats import check_storable, is_zarr_store, zarr_root
 from ._pyramid import halved, halved_shape, level_count, plane_slices
@@ -152,34 +152,35 @@ def write_zarr(path: Path, array, *, overwrite, plane_axes, progress, metadata) 
     chunks = tuple(size if axis in axes else 1 for axis, size in enumerate(array.shape))
     array = native(array)
     made: list[Path] = []
-    try:
-        temporary = create_temporary_directory(path.parent, path.name, made)
-        lazy = is_lazy(array)
-        store = _waited_for(
-            _create_zarr_array,
-            zarr,
-            os.path.abspath(temporary),
-            array,
-            chunks,
-            metadata,
-            None if lazy else np.asarray(array),
-        )
-        if lazy:
-            array = array.rechunk({axis: -1 for axis in axes})  # no-op for rendered arrays
-            write = functools.partial(_write_zarr_block, store)
-            run_blocks(array, write, plane_axes=tuple(axes), progress=progress)
-            if store != os.path.abspath(temporary):  # an OME-Zarr image: its lower levels
-                _write_lower_levels_of(zarr, os.path.abspath(temporary), chunks)
-        elif progress is not None:
-            total = plane_count(array.shape, plane_axes)
-            progress(total, total)
-        publish_directory(temporary, path, overwrite=overwrite)
-    except BaseException:
-        for temporary in made:
-            shutil.rmtree(temporary, ignore_errors=True)
-        raise
-    finally:
-        _cached_zarr_for_writing.cache_clear()
+    with named_after_destination(path, made):  # the error names path, not the temporary
+        try:
+            temporary = create_temporary_directory(path.parent, path.name, made)
+            lazy = is_lazy(array)
+            store = _waited_for(
+                _create_zarr_array,
+                zarr,
+                os.path.abspath(temporary),
+                array,
+                chunks,
+                metadata,
+                None if lazy else np.asarray(array),
+            )
+            if lazy:
+                array = array.rechunk({axis: -1 for axis in axes})  # no-op for rendered arrays
+                write = functools.partial(_write_zarr_block, store)
+                run_blocks(array, write, plane_axes=tuple(axes), progress=progress)
+                if store != os.path.abspath(temporary):  # an OME-Zarr image: its lower levels
+                    _write_lower_levels_of(zarr, os.path.abspath(temporary), chunks)
+            elif progress is not None:
+                total = plane_count(array.shape, plane_axes)
+                progress(total, total)
+            publish_directory(temporary, path, overwrite=overwrite)
+        except BaseException:
+            for temporary in made:
+                shutil.rmtree(temporary, ignore_errors=True)
+            raise
+        finally:
+            _cached_zarr_for_writing.cache_clear()
     return path
 
 
