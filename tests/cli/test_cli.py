@@ -714,6 +714,14 @@ def test_every_one_word_parameter_has_a_flag_with_its_defaults_in_help(capsys):
         assert text + format_value(parameter.paper) in out, name
 
 
+def test_tone_ranges_in_help_read_as_they_are_typed(capsys):
+    # printed "(default (0.0, 10.0, 91.66666666666667, 173.33333333333334, 255.0) with ..."
+    assert main(["render", "--help"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "(default 0,10,91.67,173.3,255 with the labyrinth preset; paper 3)" in out
+    assert "91.666" not in out and "(0.0," not in out
+
+
 @pytest.mark.parametrize(
     "flag,assignment",
     [

@@ -3,6 +3,7 @@
 import inspect
 import re
 
+import numpy as np
 import pytest
 
 from napari_labyrinth import PARAMETERS, PRESETS, labyrinth
@@ -11,6 +12,7 @@ from napari_labyrinth.core.parameters import (
     SEED,
     SWEEPABLE,
     LabyrinthParameters,
+    format_value,
     make_parameters,
 )
 
@@ -206,6 +208,23 @@ def test_one_separator_with_spaces_around_it_leaves_no_value_empty(name, text, v
 def test_a_value_that_is_not_one_is_refused_with_a_hint_for_ranges(name, text, match):
     with pytest.raises(ValueError, match=match):
         SWEEPABLE[name].parse_values(text)
+
+
+@pytest.mark.parametrize(
+    "value, text",
+    [
+        (0.04, "0.04"),
+        (True, "true"),
+        ("inside", "inside"),
+        (3, "3"),
+        ((0.0, 10.0, 91.66666666666667, 173.33333333333334, 255.0), "0,10,91.67,173.3,255"),
+        ([10, 120.5, 255], "10,120.5,255"),
+        (np.array([10.0, 255.0]), "10,255"),
+        (np.float32(1 / 3), "0.3333"),
+    ],
+)
+def test_values_in_words_read_as_they_are_typed(value, text):
+    assert format_value(value) == text
 
 
 def test_bounds_hold_in_the_api():

@@ -62,11 +62,14 @@ KINDS = ("float", "int", "choice", "bool", "tone_ranges", "tones", "seed")
 
 
 def format_value(value: Any) -> str:
-    """A parameter value in words (layer names, help): ``0.04``, ``true``, ``inside``."""
-    if isinstance(value, bool):
-        return str(value).lower()
-    if isinstance(value, float):
-        return f"{value:.4g}"
+    """A parameter value in words (layer names, help): ``0.04``, ``true``, ``inside``;
+    tone range limits as they are typed, ``0,10,91.67,173.3,255`` (numbers to 4 digits)."""
+    if isinstance(value, (bool, np.bool_)):
+        return str(bool(value)).lower()
+    if isinstance(value, (float, np.floating)):
+        return f"{float(value):.4g}"
+    if isinstance(value, (tuple, list, np.ndarray)) and np.ndim(value) == 1:
+        return ",".join(format_value(item) for item in value)
     return str(value)
 
 
