@@ -31,14 +31,18 @@ numba's dispatcher types every argument of every call, a NamedTuple on its
 Python route; :func:`compiled_for` gives a caller that
 calls a kernel many times with arguments of the same types its compiled code
 to call without that.
+
+A platform wheel carries every kernel compiled for a portable CPU model
+(:mod:`._shipped`): ``cached_njit`` loads a kernel from there before it looks in
+numba's cache, where this process may (:func:`._shipped.shipped`), and saves
+every kernel there when the build compiles them (``_shipped.COMPILE_INTO``).
+With :data:`COMPILE_LOG` naming a file, every kernel numba compiles in a process
+(and in the processes it starts) is noted there, a line each.
 """
 
 from __future__ import annotations
 
-import contextlib
-import functools
-import hashlib
-import inspect
+import os
 import pickle
 import threading
 import warnings
@@ -49,6 +53,14 @@ except ImportError:  # pragma: no cover - Windows
     fcntl = None
 
 from numba import njit
+from numba.core import event
+
+from . import _shipped
+from ._kernel_sources import source_digest
+
+#: Set to a file's path to note there every kernel of the package numba compiles, a line
+#: each (name, signature, the test running then): what a shipped wheel leaves to compile.
+COMPILE_LOG = "NAPARI_LABYRINTH_COMPILE_LOG"
 
 #: The start of the message numba raises when no cache directory can be written.
 _NO_LOCATOR = "cannot cache function"
@@ -77,16 +89,24 @@ def cached_njit(**options):
     def decorate(function):
         _name_by_closure(function)
         dispatcher = njit(**options)(function)
+        shipped = _shipped.shipped_cache(function)
+        if shipped is not None and os.environ.get(_shipped.COMPILE_INTO):
+            dispatcher._cache = shipped  # the build: every kernel saved in the shipped layout
+            _lock_between_processes(dispatcher)
+            return dispatcher
         try:
             dispatcher.enable_caching()
         except RuntimeError as error:
             if not str(error).startswith(_NO_LOCATOR):
                 raise
-            _warn_once()
+            if shipped is None:  # nothing shipped to load either: every kernel compiles
+                _warn_once()
         else:
             _stamp_with_sources(dispatcher)
             _read_unreadable_index_as_stale(dispatcher)
             _lock_between_processes(dispatcher)
+        if shipped is not None or _shipped.of_the_package(function):
+            dispatcher._cache = _shipped.ShippedFirst(function, shipped, dispatcher._cache)
         return dispatcher
 
     return decorate
@@ -123,18 +143,7 @@ def _stamp_with_sources(dispatcher) -> None:
     cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
     if cache_file is None or not hasattr(cache_file, "_source_stamp"):
         return  # a numba whose cache differs: its own stamp stands
-    digest = hashlib.sha256()
-    for path in sorted(_source_files(dispatcher.py_func)):
-        digest.update(path.encode() + b"\0" + _file_digest(path))
-    cache_file._source_stamp = (cache_file._source_stamp, digest.hexdigest())
-
-
-@functools.lru_cache(maxsize=None)
-def _file_digest(path: str) -> bytes:
-    """The digest of ``path``'s contents, read once a process: the kernels of a module
-    and their helpers share their files."""
-    with open(path, "rb") as source:
-        return hashlib.sha256(source.read()).digest()
+    cache_file._source_stamp = (cache_file._source_stamp, source_digest(dispatcher.py_func))
 
 
 def _read_unreadable_index_as_stale(dispatcher) -> None:
@@ -189,34 +198,6 @@ def _lock_between_processes(dispatcher) -> None:
 
     cache_file.save = locked(save, fcntl.LOCK_EX)
     cache_file.load = locked(load, fcntl.LOCK_SH)
-
-
-def _source_files(function, seen: set[str] | None = None) -> set[str]:
-    """The file of ``function`` and those of the jitted functions it reaches through its
-    globals (helpers, tuples of kernels), as the decorator sees them: helpers come from
-    imports at the top of a module or are defined above their caller. The files of the
-    NamedTuple classes in those globals too: the kernels' arguments, imported at the top
-    of their modules."""
-    seen = set() if seen is None else seen
-    try:
-        path = inspect.getsourcefile(function)
-    except TypeError:
-        return seen
-    if path is None or path in seen:
-        return seen
-    seen.add(path)
-    values = list(getattr(function, "__globals__", {}).values())
-    while values:
-        value = values.pop()
-        if isinstance(value, tuple):
-            values.extend(value)
-        elif hasattr(value, "py_func") and hasattr(value, "overloads"):  # a dispatcher
-            _source_files(value.py_func, seen)
-        elif isinstance(value, type) and issubclass(value, tuple) and hasattr(value, "_fields"):
-            with contextlib.suppress(TypeError, OSError):  # a NamedTuple of no file
-                seen.add(inspect.getsourcefile(value) or "")
-    seen.discard("")
-    return seen
 
 
 def compiled_for(dispatcher, *arguments):
@@ -298,7 +279,6 @@ def watch_compiles() -> None:
     global _listener
     if _listener is not None:
         return
-    from numba.core import event
 
     class _Watcher(event.Listener):
         def on_start(self, ev):
@@ -322,3 +302,65 @@ def compiling() -> str | None:
     """
     with _compiling_lock:
         return _compiling[0] if _compiling else None
+
+
+def _note_compiles_in(path: str) -> None:
+    """Append a line to ``path`` for every kernel of the package numba compiles in this
+    process, called from Python (the helpers a kernel's compile types on the way are part
+    of it): its qualified name, signature, the test running then (pytest's
+    ``PYTEST_CURRENT_TEST``, which the processes a test starts inherit) and the process."""
+    depth = threading.local()
+
+    class _Noter(event.Listener):
+        def on_start(self, ev):
+            depth.value = getattr(depth, "value", 0) + 1
+            function = ev.data["dispatcher"].py_func
+            if depth.value > 1 or not _is_the_packages(function):
+                return
+            test = os.environ.get("PYTEST_CURRENT_TEST", "").rsplit(" (", 1)[0]
+            line = f"{function.__qualname__}\t{ev.data['args']}\t{test}\t{os.getpid()}\n"
+            with open(path, "a", encoding="utf-8") as log:
+                log.write(line)
+
+        def on_end(self, ev):
+            depth.value -= 1
+
+    event.register("numba:compile", _Noter())
+
+
+def _is_the_packages(function) -> bool:
+    """Whether ``function`` is defined by a module of this package (by its module's name)."""
+    return (function.__module__ or "").startswith("napari_labyrinth")
+
+
+def _say_why_at_the_first_compile() -> None:
+    """Have :func:`._shipped.say_why_compiling` say once why the package's first kernel to
+    compile in this process compiles (a load from a cache is no compile)."""
+
+    class _FirstCompile(event.Listener):
+        def on_start(self, ev):
+            function = ev.data["dispatcher"].py_func
+            if _is_the_packages(function):
+                _shipped.say_why_compiling(function.__qualname__)
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", _FirstCompile())
+
+
+_noting: str | None = None
+
+
+def note_compiles() -> None:
+    """Note the kernels numba compiles in this process in the file :data:`COMPILE_LOG`
+    names, if it names one (once a process; this module does so as it is imported)."""
+    global _noting
+    path = os.environ.get(COMPILE_LOG)
+    if path and _noting is None:
+        _noting = path
+        _note_compiles_in(path)
+
+
+note_compiles()
+_say_why_at_the_first_compile()
