@@ -8,7 +8,7 @@ FORMATS_PY := $(FORMATS_VENV)/bin/python
 FORMATS_PIP := $(FORMATS_PY) -m pip --disable-pip-version-check
 APT_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1
 
-.PHONY: demo test test-fast fuzz bench-hostile file-cases bench bench-speed bench-scale bench-widget bench-metrics bench-window bench-cold formats-table study gallery screenshot install install-test system-packages clean
+.PHONY: demo test test-fast wheel test-wheel fuzz bench-hostile file-cases bench bench-speed bench-scale bench-widget bench-metrics bench-window bench-cold formats-table study gallery screenshot install install-test system-packages clean
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/napari-labyrinth demo -o demo-output --overwrite
@@ -144,6 +144,29 @@ clean:
 # cache (API, CLI, the widget opened from the Plugins menu); BEFORE=f22d86f adds that commit.
 bench-cold: $(VENV)/.installed-test system-packages
 	xvfb-run -a $(PY) benchmarks/bench_cold_start.py $(if $(BEFORE),--before $(BEFORE))
+
+# The distributions in dist/: the sdist and the pure wheel (py3-none-any: numba compiles the
+# kernels on the user's machine), then this machine's platform wheel, which carries them
+# compiled for its CPU target (hatch_build.py runs every first call a user can make: minutes).
+wheel: $(VENV)/.installed-test
+	rm -rf dist build/kernels
+	PATH="$(CURDIR)/$(VENV)/bin:$$PATH" $(PY) -m build --installer uv --outdir dist .
+	HATCH_BUILD_HOOK_ENABLE_CUSTOM=true $(PY) -m build --wheel --no-isolation --outdir dist .
+	@ls -l dist
+
+# The whole suite run from the platform wheel in a fresh venv with an empty numba cache, as
+# a user's machine meets it; its summary counts the kernels numba compiled (0: the wheel
+# carries every one the tests call). Then the first calls checked against the JIT.
+WHEEL_VENV := build/wheel-venv
+test-wheel: wheel system-packages
+	rm -rf $(WHEEL_VENV) build/wheel-numba-cache
+	$(VENV)/bin/uv venv -q --python $(PY) $(WHEEL_VENV)
+	$(VENV)/bin/uv pip install -q --python $(WHEEL_VENV)/bin/python \
+		"$$(ls dist/napari_labyrinth-*-cp*.whl)[test,docs]"
+	cd build && NUMBA_CACHE_DIR=$(CURDIR)/build/wheel-numba-cache \
+		$(CURDIR)/$(WHEEL_VENV)/bin/python -m pytest -n auto --dist worksteal \
+		-p no:cacheprovider --rootdir $(CURDIR) -c $(CURDIR)/pyproject.toml $(CURDIR)/tests
+	$(WHEEL_VENV)/bin/python benchmarks/check_shipped_kernels.py
 
 # The built wheel installed as users install it (a fresh venv they cannot write to), its
 # numba cache in their cache directory, and no cache at all (1-2 min): not part of make test.

@@ -287,3 +287,120 @@ def test_no_writable_cache_anywhere_still_renders_with_one_warning(installed):
     warnings = [line for line in result.stderr.splitlines() if "Warning:" in line]
     assert len([w for w in warnings if "cache" in w.lower()]) == 1, result.stderr
     assert not any(installed.no_home.iterdir())
+
+
+# -- the platform wheel: the kernels compiled for this machine kind's CPU, inside ------------
+
+
+@pytest.fixture(scope="module")
+def platform_wheel(install):
+    """This machine's platform wheel, built as ``make wheel`` builds it (the build hook on,
+    from this environment, which holds the package's dependencies)."""
+    out = install.base / "platform-dist"
+    build = subprocess.run(
+        [sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", str(out),
+         str(ROOT)],
+        capture_output=True, text=True, timeout=TIMEOUT,
+        env=dict(os.environ, HATCH_BUILD_HOOK_ENABLE_CUSTOM="true"),
+    )  # fmt: skip
+    assert build.returncode == 0, build.stdout[-3000:] + build.stderr[-3000:]
+    (wheel,) = out.glob("napari_labyrinth-*.whl")
+    return wheel
+
+
+def _names(wheel: Path) -> list[str]:
+    import zipfile
+
+    with zipfile.ZipFile(wheel) as archive:
+        return archive.namelist()
+
+
+def test_the_pure_wheel_and_the_sdist_carry_no_compiled_kernels(dists):
+    import tarfile
+
+    sdist, wheel = dists
+    assert wheel.name.endswith("-py3-none-any.whl")
+    assert not [name for name in _names(wheel) if "_compiled" in name or name.endswith(".nbc")]
+    with tarfile.open(sdist) as archive:
+        assert not [n for n in archive.getnames() if "_compiled" in n or n.endswith(".nbc")]
+
+
+def test_the_platform_wheel_carries_the_kernels_tagged_for_this_python_and_platform(
+    platform_wheel,
+):
+    import numba
+
+    from napari_labyrinth.core._shipped import platform_key
+
+    python = "cp{}{}".format(*sys.version_info[:2])
+    assert f"-{python}-{python}-" in platform_wheel.name
+    names = _names(platform_wheel)
+    folder = f"napari_labyrinth/_compiled/{numba.__version__}/{platform_key()}/"
+    assert folder + "target.json" in names
+    assert sum(name.startswith(folder) and name.endswith(".nbc") for name in names) > 20
+    assert not [name for name in names if name.endswith(".lock")]
+    check = subprocess.run(
+        [sys.executable, "-m", "twine", "check", "--strict", str(platform_wheel)],
+        capture_output=True, text=True, timeout=TIMEOUT,
+    )  # fmt: skip
+    assert check.returncode == 0, check.stdout + check.stderr
+
+
+@pytest.fixture(scope="module")
+def platform_installed(install, platform_wheel):
+    """The platform wheel in a second venv, read-only to its user, beside the pure one."""
+    python = install.interpreter()
+    if python is None:
+        pytest.skip(f"no Python {sys.version_info[:2]} that {install.user.pw_name} can run")
+    venv = install.base / "platform-venv"
+    uv = _uv()
+    if uv:
+        subprocess.run([uv, "venv", "-q", "--python", python, str(venv)], check=True)
+        command = [uv, "pip", "install", "-q", "--python", str(venv / "bin" / "python")]
+    else:
+        subprocess.run([python, "-m", "venv", str(venv)], check=True)
+        command = [str(venv / "bin" / "python"), "-m", "pip", "install", "-q"]
+    result = subprocess.run(
+        [*command, str(platform_wheel)], capture_output=True, text=True, timeout=TIMEOUT
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    _chmod_tree(venv, writable=False)
+    if not (install.work / "input.png").exists():
+        iio.imwrite(install.work / "input.png", data.camera()[::4, ::4])
+    try:
+        yield venv
+    finally:
+        _chmod_tree(venv, writable=True)
+
+
+def test_from_the_platform_wheel_the_cli_compiles_nothing_and_writes_no_cache(
+    install, platform_installed
+):
+    home = install.base / "platform-home"
+    home.mkdir()
+    if install.as_root:
+        os.chown(home, install.user.pw_uid, install.user.pw_gid)
+    log = install.work / "platform-compiled.tsv"
+    bin_path = f"{platform_installed / 'bin'}:/usr/local/bin:/usr/bin:/bin"
+    result = install.run(
+        "napari-labyrinth", "render", "input.png", "-o", "platform/", home=home,
+        PATH=bin_path, NAPARI_LABYRINTH_COMPILE_LOG=str(log),
+    )  # fmt: skip
+    assert (install.work / "platform" / "input_labyrinth.png").is_file(), result.stdout
+    assert not log.exists() or log.read_text() == "", log.read_text()
+    assert "Warning" not in result.stderr, result.stderr
+    assert not (home / ".cache").exists(), sorted(map(str, home.rglob("*")))
+    needed = install.run(
+        "python", "-c", "from napari_labyrinth import _warmup; print(_warmup.needed())",
+        home=home, PATH=bin_path,
+    )  # fmt: skip
+    assert needed.stdout.strip() == "False"  # the widget starts no warm-up process
+    jit = install.run(
+        "napari-labyrinth", "render", "input.png", "-o", "platform-jit/", home=home,
+        PATH=bin_path, NAPARI_LABYRINTH_SHIPPED_KERNELS="0",
+    )  # fmt: skip
+    assert "NAPARI_LABYRINTH_SHIPPED_KERNELS=0 turns them off" in jit.stderr, jit.stderr
+    np.testing.assert_array_equal(
+        iio.imread(install.work / "platform" / "input_labyrinth.png"),
+        iio.imread(install.work / "platform-jit" / "input_labyrinth.png"),
+    )

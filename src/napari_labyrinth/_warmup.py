@@ -13,6 +13,14 @@ beside it; what a run needs beyond them (another preset, another dtype)
 compiles in the run. The process prints a line per step (``step K of N:
 what``) and per kernel it compiles (``kernel NAME``), which the widget shows,
 and ends with the viewer. Run it by hand after an install to the same effect.
+
+Where the install's shipped kernels load (``core._shipped``), nothing is left to
+compile and the widget starts no such process.
+
+``python -m napari_labyrinth._warmup --all`` makes every first call a user can
+make (:mod:`._every_call`): the build of the platform wheel runs it to compile
+every kernel into the wheel, and it fills numba's cache where no wheel carries
+them.
 """
 
 from __future__ import annotations
@@ -23,6 +31,8 @@ import sys
 from collections.abc import Callable
 
 import numpy as np
+
+from .core._shipped import shipped
 
 #: Set to any value to keep the widget from compiling out of its process (tests do):
 #: runs then compile in the viewer's process, as a script's calls do.
@@ -38,6 +48,12 @@ WARM_UP_SIDE = 1024
 def disabled() -> bool:
     """Whether kernels compile in the process that needs them (``DISABLE_VARIABLE`` set)."""
     return bool(os.environ.get(DISABLE_VARIABLE))
+
+
+def needed() -> bool:
+    """Whether first calls compile kernels here: the install's shipped kernels do not load
+    (``core._shipped``), so a warm-up process has something to do."""
+    return shipped().refused is not None
 
 
 def command(*arguments: str) -> list[str]:
@@ -93,10 +109,19 @@ def run_steps(steps: list[tuple[str, Callable[[], object]]]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m napari_labyrinth._warmup [--dtype D]``."""
+    """``python -m napari_labyrinth._warmup [--dtype D | --all]``."""
     parser = argparse.ArgumentParser(prog="python -m napari_labyrinth._warmup")
     parser.add_argument("--dtype", default=DEFAULT_DTYPE, help="dtype of the images to prepare")
-    run_steps(warm_up_steps(parser.parse_args(argv).dtype))
+    parser.add_argument(
+        "--all", action="store_true", help="every first call a user can make (the wheel's build)"
+    )
+    arguments = parser.parse_args(argv)
+    if arguments.all:
+        from ._every_call import every_call_steps  # the whole package: only for --all
+
+        run_steps(every_call_steps())
+    else:
+        run_steps(warm_up_steps(arguments.dtype))
     print("done", flush=True)
     return 0
 

@@ -52,10 +52,11 @@ class WarmUp(QObject):
         return self._process is not None and self._process.state() != QProcess.NotRunning
 
     def start(self, dtype: str) -> bool:
-        """Start the warm-up for images of ``dtype`` unless one was started this session
-        or warm-ups are disabled (``_warmup.DISABLE_VARIABLE``); whether it started."""
+        """Start the warm-up for images of ``dtype`` unless one was started this session,
+        warm-ups are disabled (``_warmup.DISABLE_VARIABLE``) or the install's shipped
+        kernels load (nothing to compile: ``_warmup.needed``); whether it started."""
         global _started
-        if _started or _warmup.disabled():
+        if _started or _warmup.disabled() or not _warmup.needed():
             return False
         _started = True
         program, *arguments = _warmup.command("--dtype", dtype)
