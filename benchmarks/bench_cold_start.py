@@ -28,6 +28,13 @@ cache after the row (the widget rows: as the second Run ended; a warm-up process
 running then is ended, and the notes say so), the 1-minute load average as the row ended.
 A row over ``--timeout`` seconds is reported as such.
 
+``--wheel WHEEL`` adds two columns measured in a fresh venv (uv) where WHEEL and
+napari are installed, as a user installs them: ``wheel`` (its shipped kernels
+used, if it carries them) and ``wheel-jit`` (the same install with
+``NAPARI_LABYRINTH_SHIPPED_KERNELS=0``: numba compiles, as an install without
+them does). The column ``compiled`` counts the kernels numba compiled in the
+row's processes (``NAPARI_LABYRINTH_COMPILE_LOG``).
+
 Trees: by default the installed package (``current`` when it is this checkout's src,
 an editable install); ``--tree PATH`` measures PATH/src instead
 (prepended to PYTHONPATH in every process, the napari manifest included, as
@@ -37,7 +44,8 @@ with the other tree row by row. ``--repeat N`` keeps, per row and tree, the run 
 best first call.
 
 Run: ``make bench-cold`` or ``xvfb-run -a python benchmarks/bench_cold_start.py
-[--before f22d86f] [--tree PATH] [--rows labyrinth-u8 widget-single] [--repeat N]``.
+[--before f22d86f] [--tree PATH] [--wheel dist/X.whl] [--rows labyrinth-u8 widget-single]
+[--repeat N]``.
 """
 
 from __future__ import annotations
@@ -361,13 +369,28 @@ def _cache_files(path: pathlib.Path) -> int:
     return sum(len(files) for _, _, files in os.walk(path))
 
 
-def _spawn(row: str, tree: str | None, cache: pathlib.Path, timeout: float) -> dict:
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
+class Variant:
+    """What a column runs: a tree (PYTHONPATH), or the Python of a venv, with extra variables."""
+
+    def __init__(self, label: str, tree: str | None = None, python: str | None = None,
+                 env: dict | None = None):  # fmt: skip
+        self.label, self.tree, self.python, self.env = label, tree, python, env or {}
+
+
+def _compiles(log: pathlib.Path) -> int:
+    return len(log.read_text().splitlines()) if log.exists() else 0
+
+
+def _spawn(row: str, variant: Variant, cache: pathlib.Path, timeout: float) -> dict:
+    tree = variant.tree
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), **variant.env)
+    env["NAPARI_LABYRINTH_COMPILE_LOG"] = str(cache.parent / f"{cache.name}.compiled")
     if tree:
         env["PYTHONPATH"] = os.pathsep.join(
             [str(pathlib.Path(tree) / "src"), *filter(None, [os.environ.get("PYTHONPATH")])]
         )
-    command = [sys.executable, str(pathlib.Path(__file__).resolve()), "--child", row]
+    python = variant.python or sys.executable
+    command = [python, str(pathlib.Path(__file__).resolve()), "--child", row]
     command += ["--timeout", str(timeout)] + (["--tree", tree] if tree else [])
     process = subprocess.Popen(
         command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
@@ -396,23 +419,29 @@ def _kill_tree(process: subprocess.Popen) -> None:
     process.kill()
 
 
-def run_row(row: str, tree: str | None, timeout: float) -> dict:
+def run_row(row: str, variant: Variant, timeout: float) -> dict:
     cache = pathlib.Path(tempfile.mkdtemp(prefix="cold-numba-"))
+    log = cache.parent / f"{cache.name}.compiled"
     try:
-        result = _spawn(row, tree, cache, timeout)
+        result = _spawn(row, variant, cache, timeout)
         if row == "import" and "error" not in result:
-            again = _spawn("import-again", tree, cache, timeout)
+            again = _spawn("import-again", variant, cache, timeout)
             result["second"] = again.get("first")
         result.setdefault("cache", _cache_files(cache))
+        result["compiled"] = _compiles(log)
     finally:
         shutil.rmtree(cache, ignore_errors=True)
+        log.unlink(missing_ok=True)
     result["load"] = _load()
     return result
 
 
-def _check_tree(result: dict, tree: str | None) -> None:
-    """Say so when the package was not imported from the tree meant."""
-    expected = str(pathlib.Path(tree).resolve() / "src") if tree else None
+def _check_tree(result: dict, variant: Variant) -> None:
+    """Say so when the package was not imported from the tree or venv meant."""
+    if variant.python:
+        expected = str(pathlib.Path(variant.python).parent.parent)
+    else:
+        expected = str(pathlib.Path(variant.tree).resolve() / "src") if variant.tree else None
     for key in ("file", "widget_file"):
         path = result.get(key)
         if path and expected and not str(pathlib.Path(path).resolve()).startswith(expected):
@@ -433,8 +462,8 @@ def _line(row: str, label: str, result: dict) -> str:
         notes.append(result["error"])
     return (
         f"{row:<14}| {label:<10}| {_seconds(result.get('first')):>8} | "
-        f"{_seconds(result.get('second')):>8} | {result.get('cache', '-'):>11} | "
-        f"{result['load']:>5} | {'; '.join(notes)}".rstrip()
+        f"{_seconds(result.get('second')):>8} | {result.get('compiled', '-'):>8} | "
+        f"{result.get('cache', '-'):>11} | {result['load']:>5} | {'; '.join(notes)}".rstrip()
     )
 
 
@@ -459,11 +488,26 @@ def _before_tree(ref: str) -> pathlib.Path:
     return target
 
 
+def _wheel_venv(wheel: str) -> pathlib.Path:
+    """A fresh venv (uv) holding ``wheel`` and napari with PyQt6, as a user installs them."""
+    from uv import find_uv_bin
+
+    venv = pathlib.Path(tempfile.mkdtemp(prefix="cold-wheel-")) / "venv"
+    uv = find_uv_bin()
+    subprocess.run([uv, "venv", "-q", "--python", sys.executable, str(venv)], check=True)
+    python = venv / "bin" / "python"
+    requirement = f"napari-labyrinth[napari] @ {pathlib.Path(wheel).resolve().as_uri()}"
+    subprocess.run([uv, "pip", "install", "-q", "--python", str(python), requirement],
+                   check=True)  # fmt: skip
+    return python
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rows", nargs="+", choices=ROWS, default=list(ROWS))
     parser.add_argument("--tree", help="measure PATH/src instead of the installed package")
     parser.add_argument("--before", metavar="REF", help="also measure git REF's src, interleaved")
+    parser.add_argument("--wheel", help="also measure this wheel installed in a fresh venv")
     parser.add_argument("--repeat", type=int, default=1, help="runs per row; best first kept")
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per process")
     parser.add_argument("--child", help=argparse.SUPPRESS)
@@ -475,45 +519,60 @@ def main(argv=None) -> int:
         print(MARK + json.dumps(result), flush=True)
         return 0
 
-    trees = [(pathlib.Path(args.tree).name if args.tree else _installed_label(), args.tree)]
+    variants = [
+        Variant(pathlib.Path(args.tree).name if args.tree else _installed_label(), args.tree)
+    ]
     before = _before_tree(args.before) if args.before else None
     if before is not None:
-        trees.append((args.before, str(before)))
+        variants.append(Variant(args.before, str(before)))
+    wheel_python = _wheel_venv(args.wheel) if args.wheel else None
+    if wheel_python is not None:
+        variants.append(Variant("wheel", python=str(wheel_python)))
+        variants.append(
+            Variant("wheel-jit", python=str(wheel_python),
+                    env={"NAPARI_LABYRINTH_SHIPPED_KERNELS": "0"})  # fmt: skip
+        )
     rows = [row for row in ROWS if row in args.rows]
     display = os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
     print(
         f"load average at the start: {_load()}  cores: {os.cpu_count()}  "
         f"image: {SIZE}²  repeat: {args.repeat}  timeout: {args.timeout:.0f} s"
     )
-    for label, tree in trees:
-        where = f"{tree}/src" if tree else "the installed package"
-        where += ", this checkout's src" if label == "current" else ""
-        print(f"tree {label}: {where}")
+    for variant in variants:
+        if variant.python:
+            where = f"{args.wheel} in a fresh venv ({variant.python})"
+            where += ", shipped kernels off" if variant.env else ""
+        else:
+            where = f"{variant.tree}/src" if variant.tree else "the installed package"
+            where += ", this checkout's src" if variant.label == "current" else ""
+        print(f"tree {variant.label}: {where}")
     if not display and any(row in WIDGET_ROWS for row in rows):
         print("no DISPLAY: the widget rows are skipped (run under xvfb-run -a)")
         rows = [row for row in rows if row not in WIDGET_ROWS]
     print(
-        f"\n{'row':<14}| {'tree':<10}| {'first s':>8} | {'second s':>8} | "
+        f"\n{'row':<14}| {'tree':<10}| {'first s':>8} | {'second s':>8} | {'compiled':>8} | "
         f"{'cache files':>11} | {'load':>5} | notes"
     )
     try:
         for row in rows:
             best: dict[str, dict] = {}
             for _ in range(args.repeat):
-                for label, tree in trees:  # interleaved: a passing load falls on both
-                    result = run_row(row, tree, args.timeout)
-                    _check_tree(result, tree)
-                    kept = best.get(label)
+                for variant in variants:  # interleaved: a passing load falls on all
+                    result = run_row(row, variant, args.timeout)
+                    _check_tree(result, variant)
+                    kept = best.get(variant.label)
                     if kept is None or (
                         result.get("first") is not None
                         and (kept.get("first") is None or result["first"] < kept["first"])
                     ):
-                        best[label] = result
-            for label, _ in trees:
-                print(_line(row, label, best[label]), flush=True)
+                        best[variant.label] = result
+            for variant in variants:
+                print(_line(row, variant.label, best[variant.label]), flush=True)
     finally:
         if before is not None:
             shutil.rmtree(before, ignore_errors=True)
+        if wheel_python is not None:
+            shutil.rmtree(wheel_python.parent.parent.parent, ignore_errors=True)
     print(f"\nload average at the end: {_load()}")
     return 0
 

@@ -24,3 +24,40 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if "_qt" in item.path.parent.parts:
             item.add_marker(pytest.mark.qt)
+
+
+# Every kernel numba compiles in the run's processes, and in those they start, is noted in
+# one file (napari_labyrinth.core._jit.COMPILE_LOG); the summary counts them. From an install
+# that carries compiled kernels the count is the kernels they lack. Tests that compile on
+# purpose (the fallbacks of tests/core/test_shipped.py) note theirs in files of their own.
+_COMPILE_LOG = "NAPARI_LABYRINTH_COMPILE_LOG"
+os.environ.setdefault(_COMPILE_LOG, os.path.join(_scratch, "compiled-kernels.tsv"))
+
+
+def pytest_sessionstart(session):
+    from napari_labyrinth.core import _jit
+
+    _jit.note_compiles()
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    if hasattr(config, "workerinput"):  # an xdist worker: the controller sums up
+        return
+    import collections
+    import napari_labyrinth
+
+    path = os.environ[_COMPILE_LOG]
+    lines = []
+    if os.path.exists(path):
+        with open(path, encoding="utf-8") as log:
+            lines = [line.rstrip("\n").split("\t") for line in log if line.strip()]
+    tests = collections.Counter(fields[2] or "(outside a test)" for fields in lines)
+    signatures = {(fields[0], fields[1]) for fields in lines}
+    write = terminalreporter.write_line
+    write(
+        f"numba compiled {len(lines)} kernels of napari_labyrinth in this run "
+        f"({len(signatures)} signatures, in {len(tests)} tests; package from "
+        f"{os.path.dirname(napari_labyrinth.__file__)})"
+    )
+    for test, count in tests.most_common(10 if lines else 0):
+        write(f"  {count:4d}  {test}")
