@@ -160,7 +160,7 @@ wheel: $(VENV)/.installed-test
 WHEEL_VENV := build/wheel-venv
 test-wheel: wheel system-packages
 	rm -rf $(WHEEL_VENV) build/wheel-numba-cache
-	$(VENV)/bin/uv venv -q --python $(PY) $(WHEEL_VENV)
+	$(VENV)/bin/uv venv -q --seed --python $(PY) $(WHEEL_VENV)
 	$(VENV)/bin/uv pip install -q --python $(WHEEL_VENV)/bin/python \
 		"$$(ls dist/napari_labyrinth-*-cp*.whl)[test,docs]"
 	cd build && NUMBA_CACHE_DIR=$(CURDIR)/build/wheel-numba-cache \

@@ -37,3 +37,13 @@ def test_it_is_disabled_by_its_variable(monkeypatch):
     assert not _warmup.disabled()
     monkeypatch.setenv(_warmup.DISABLE_VARIABLE, "1")
     assert _warmup.disabled()
+
+
+@pytest.mark.parametrize(("refused", "needed"), [(None, False), ("this install carries none", True)])
+def test_a_warm_up_is_needed_only_where_the_shipped_kernels_do_not_load(
+    monkeypatch, refused, needed
+):
+    from napari_labyrinth.core._shipped import Shipped
+
+    monkeypatch.setattr(_warmup, "shipped", lambda: Shipped(None, None, refused))
+    assert _warmup.needed() is needed

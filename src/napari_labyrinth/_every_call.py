@@ -30,6 +30,7 @@ import tifffile
 from . import labyrinth, labyrinth_stack, labyrinth_sweep, metrics, streaming
 from .cli import main as command_line
 from .core.parameters import PARAMETERS
+from .core.percentiles import integer_percentiles
 from .core.presets import PRESETS
 from .core.tone_scale import SUPPORTED_DTYPES
 from .io import write_image
@@ -72,6 +73,7 @@ def every_call_steps() -> list[tuple[str, Callable[[], object]]]:
 
     steps = [(f"labyrinth() of {t} images", _calls_of_dtype(t)) for t in SUPPORTED_DTYPES]
     steps += [
+        ("the default tone limits", _percentiles),
         ("every reading option", _every_option),
         ("colour images", _colour),
         ("metrics", _metrics),
@@ -94,6 +96,12 @@ def _calls_of_dtype(dtype) -> Callable[[], None]:
             labyrinth(image[:40, :40], preset=preset, return_diagnostics=True)
         labyrinth(_test_image(dtype, (2, 64, 64)), passes=1)
         labyrinth(image[::2, 1::2], passes=1)  # a strided view
+        frozen = image.copy()
+        frozen.setflags(write=False)  # a read-only array (a memory map, a napari layer's data)
+        for workers in (1, None):
+            labyrinth(frozen, passes=1, workers=workers)
+            labyrinth(_quiet_image(dtype), passes=1, workers=workers)  # few pixels written
+            labyrinth(_quiet_image(dtype, 640), passes=1, workers=workers)
         labyrinth(image.astype(image.dtype.newbyteorder()), passes=1)  # the other byte order
         labyrinth(image, tone_limits=(0, 1) if image.dtype.kind == "f" else None, passes=1)
         labyrinth_stack(image, passes=2)
@@ -101,6 +109,32 @@ def _calls_of_dtype(dtype) -> Callable[[], None]:
         labyrinth(image, variance_threshold="auto", passes=1)
 
     return run
+
+
+def _quiet_image(dtype, side=EVERY_CALL_SIDE) -> np.ndarray:
+    """A plane the passes barely change: their few writes are written back one by one."""
+    image = _test_image(dtype, (side, side))
+    quiet = np.full_like(image, image[0, 0])
+    quiet[side // 2, :: max(side // 8, 1)] = image.max()
+    return quiet
+
+
+def _percentiles() -> None:
+    """The default tone limits counted, as for an image of more values than
+    ``percentiles.COMPILE_FROM_VALUES``, on values that take each of its routes."""
+    for dtype in SUPPORTED_DTYPES:
+        if dtype.kind not in "iu" or dtype.itemsize > 2:
+            continue
+        info = np.iinfo(dtype)
+        cases = [
+            np.full((7, 9), 3, dtype),
+            np.array([[info.min, info.max]], dtype),
+            np.array([[5] * 199 + [info.max]], dtype),
+            np.arange(info.min, info.max + 1, dtype=np.int64).astype(dtype).reshape(-1, 16),
+            _test_image(dtype),
+        ]
+        for values in cases:
+            integer_percentiles(values, (0.5, 99.5))
 
 
 def _every_option() -> None:

@@ -47,6 +47,8 @@ def slow_warm_up(monkeypatch, tmp_path):
     monkeypatch.delenv(_warmup.DISABLE_VARIABLE, raising=False)
     monkeypatch.setattr(_warmup, "command", command)
     monkeypatch.setattr(warm_up_module, "_started", False)
+    # kernels to compile, as in an install without shipped ones (an install from source)
+    monkeypatch.setattr(_warmup, "needed", lambda: True)
     def release(*steps):
         for step in steps or (1, 2):
             (tmp_path / f"release{step}").write_text("")
@@ -169,6 +171,18 @@ def test_one_warm_up_a_session_and_none_when_disabled(qtbot, viewer, slow_warm_u
     monkeypatch.setenv(_warmup.DISABLE_VARIABLE, "1")
     assert not _open_widget(viewer).warm_up.running
     assert len(commands) == 1
+
+
+def test_no_warm_up_where_the_shipped_kernels_load(qtbot, viewer, slow_warm_up, monkeypatch):
+    commands, release = slow_warm_up
+    monkeypatch.setattr(_warmup, "needed", lambda: False)  # as a platform wheel's install
+    viewer.add_image(noise((64, 64)), name="cells")
+    widget = _open_widget(viewer)
+    assert not widget.warm_up.running
+    assert commands == []
+    assert widget.run() is not None  # runs at once: nothing to wait for
+    qtbot.waitUntil(lambda: widget.worker is None, timeout=RUN_TIMEOUT_MS)
+    assert len(viewer.layers) == 2
 
 
 def test_the_reader_handles_whole_lines_however_the_reads_split_them(qtbot):

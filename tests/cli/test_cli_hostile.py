@@ -23,10 +23,13 @@ import numpy as np
 import pytest
 import tifffile
 
+import napari_labyrinth
 from napari_labyrinth._budget import MEMORY_ENV
 from napari_labyrinth.cli import main
 
-SRC = str(Path(__file__).resolve().parents[2] / "src")
+#: Where the package these tests import lies (a source tree, or an install of a wheel): the
+#: commands they start import the same one.
+SRC = str(Path(napari_labyrinth.__file__).resolve().parents[1])
 
 #: Peak RSS (MiB) allowed to the process refusing a declared-huge file: the
 #: interpreter with numpy, tifffile and Pillow imported, far below the image.
