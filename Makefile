@@ -156,12 +156,13 @@ wheel: $(VENV)/.installed-test
 
 # The whole suite run from the platform wheel in a fresh venv with an empty numba cache, as
 # a user's machine meets it; its summary counts the kernels numba compiled (0: the wheel
-# carries every one the tests call). Then the first calls checked against the JIT.
+# carries every one the tests call). Then the first calls checked against the JIT. The venv is
+# byte-compiled, as pip installs (uv alone leaves it to the first imports).
 WHEEL_VENV := build/wheel-venv
 test-wheel: wheel system-packages
 	rm -rf $(WHEEL_VENV) build/wheel-numba-cache
 	$(VENV)/bin/uv venv -q --seed --python $(PY) $(WHEEL_VENV)
-	$(VENV)/bin/uv pip install -q --python $(WHEEL_VENV)/bin/python \
+	$(VENV)/bin/uv pip install -q --compile-bytecode --python $(WHEEL_VENV)/bin/python \
 		"$$(ls dist/napari_labyrinth-*-cp*.whl)[test,docs]"
 	cd build && NUMBA_CACHE_DIR=$(CURDIR)/build/wheel-numba-cache \
 		$(CURDIR)/$(WHEEL_VENV)/bin/python -m pytest -n auto --dist worksteal \

@@ -497,8 +497,9 @@ def _wheel_venv(wheel: str) -> pathlib.Path:
     subprocess.run([uv, "venv", "-q", "--python", sys.executable, str(venv)], check=True)
     python = venv / "bin" / "python"
     requirement = f"napari-labyrinth[napari] @ {pathlib.Path(wheel).resolve().as_uri()}"
-    subprocess.run([uv, "pip", "install", "-q", "--python", str(python), requirement],
-                   check=True)  # fmt: skip
+    # byte-compiled, as pip installs (uv leaves that to the first import)
+    subprocess.run([uv, "pip", "install", "-q", "--compile-bytecode", "--python", str(python),
+                    requirement], check=True)  # fmt: skip
     return python
 
 

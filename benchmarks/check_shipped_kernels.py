@@ -57,6 +57,14 @@ def _image(dtype_name: str, side: int = 512):
     return field.astype(dtype)
 
 
+def _load() -> str:
+    """The 1-minute load average, where the system keeps one (not on Windows)."""
+    try:
+        return f"{os.getloadavg()[0]:.2f}"
+    except (AttributeError, OSError):
+        return "n/a"
+
+
 def _digest(*arrays) -> str:
     import numpy as np
 
@@ -167,7 +175,7 @@ def main(argv=None) -> int:
     print(
         f"napari-labyrinth {napari_labyrinth.__version__} from {Path(napari_labyrinth.__file__).parent}"
         f"\nnumba {numba.__version__}, Python {sys.version.split()[0]}, {platform_key()}, "
-        f"load {os.getloadavg()[0]:.2f}, cores {os.cpu_count()}"
+        f"load {_load()}, cores {os.cpu_count()}"
     )
     print(f"\n{'call':<24}| {'compiled':>8} | {'first s':>7} | {'JIT compiled':>12} | "
           f"{'JIT first s':>11} | same")  # fmt: skip
@@ -192,7 +200,7 @@ def main(argv=None) -> int:
             f"{len(jit['compiled']):>12} | {jit['seconds']:>11.2f} | {'yes' if same else 'NO'}",
             flush=True,
         )
-    print(f"\nload {os.getloadavg()[0]:.2f}")
+    print(f"\nload {_load()}")
     for failure in failures:
         print(f"FAILED {failure}")
     print("the shipped kernels: " + ("FAILED" if failures else "every first call compiled "

@@ -99,8 +99,8 @@ TARGETS = {
     "x86_64": Target(
         "x86-64-v3",
         _X86_64_V3,
-        "AVX2 and FMA (Intel since 2013, AMD since 2015): the metrics lose ~29 % without AVX2, "
-        "and the kernels run as fast as code compiled for the host",
+        "AVX2 and FMA (Intel since 2013, AMD since 2015), which the metrics' loops use: as fast "
+        "as code compiled for the host (docs/performance.md), where x86-64-v2 is not",
     ),
     "arm64": Target(
         "apple-m1",
@@ -122,8 +122,11 @@ class CompilingKernelsWarning(RuntimeWarning):
 
 
 def machine() -> str:
-    """This machine's kind as :data:`TARGETS` names it."""
+    """This machine's kind as :data:`TARGETS` names it (arm64 is Apple silicon on macOS
+    only; elsewhere it is the AArch64 of every vendor)."""
     name = platform.machine().lower()
+    if name == "arm64" and sys.platform != "darwin":
+        return "aarch64"
     return _MACHINES.get(name, name)
 
 
