@@ -120,7 +120,8 @@ class Child:
 
             tones = self._input(("textured", side), lambda: tones_of(side))
             parameters = resolve_parameters(preset)
-            return tones.copy, lambda work: tiled_pass(work, parameters, threads, default_tile())
+            tile = default_tile(tones.shape, threads, parameters)
+            return tones.copy, lambda work: tiled_pass(work, parameters, threads, tile)
         if kind == "tile":
             preset, tile = fields[0], (int(fields[1]), int(fields[2]))
             tones = self._input(("textured", 2048), lambda: tones_of(2048))
@@ -144,7 +145,7 @@ def child_main(size: int) -> int:
     child = Child(size)
     for line in sys.stdin:
         request = json.loads(line)
-        if request.get("warm"):
+        if "warm" in request:
             for row in request["warm"]:
                 child.time(row)
             answer = {"warmed": True}

@@ -276,8 +276,20 @@ def say_why_compiling(kernel: str) -> None:
         f"first call (then kept in numba's cache); the compiled kernels are not used: "
         f"{reason}.",
         CompilingKernelsWarning,
-        stacklevel=2,
+        stacklevel=_callers_level(),
     )
+
+
+def _callers_level() -> int:
+    """The ``stacklevel`` of the first frame outside this package, numba and the standard
+    library's context managers: the user's call that compiles (2 if there is none)."""
+    frame, level = sys._getframe(2), 2
+    while frame is not None:
+        name = frame.f_globals.get("__name__", "")
+        if not name.startswith(("napari_labyrinth", "numba", "contextlib")):
+            return level
+        frame, level = frame.f_back, level + 1
+    return 2
 
 
 def _root() -> Path | None:
