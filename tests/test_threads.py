@@ -13,6 +13,36 @@ from napari_labyrinth import _threads
 from napari_labyrinth.metrics import _bands
 
 
+def test_shares_run_at_once_the_first_on_the_caller_s_thread():
+    barrier = threading.Barrier(3, timeout=5)  # every share waits for the others: at once
+    threads = {}
+
+    def share(k):
+        barrier.wait()
+        threads[k] = threading.get_ident()
+
+    _threads.run_shares(share, 3)
+    assert sorted(threads) == [0, 1, 2] and len(set(threads.values())) == 3
+    assert threads[0] == threading.get_ident()
+    seen = []
+    _threads.run_shares(seen.append, 1)
+    assert seen == [0]
+
+
+def test_a_failed_share_is_raised_once_every_share_has_ended():
+    ended = []
+
+    def share(k):
+        if k == 1:
+            raise ValueError("share 1")
+        time.sleep(0.05)
+        ended.append(k)
+
+    with pytest.raises(ValueError, match="share 1"):
+        _threads.run_shares(share, 3)
+    assert sorted(ended) == [0, 2]
+
+
 def test_a_helper_runs_its_work_and_its_lock_says_when_it_is_done():
     started, release = threading.Event(), threading.Event()
     seen = []

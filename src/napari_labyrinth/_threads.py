@@ -4,7 +4,8 @@
 core is busy. Work split among threads that the caller
 joins (it takes a share itself) need not wait for that: :func:`start_helper`
 starts a thread and returns at once, with a lock released when the thread's
-work is done.
+work is done; :func:`run_shares` runs the shares of such work, the caller's
+among them, and waits for them all.
 
 Python raises ``KeyboardInterrupt`` (Ctrl-C, or SIGTERM as the command line
 handles it) wherever the main thread waits, and an interrupted wait does not
@@ -54,6 +55,36 @@ def start_helper(work: Callable[..., Any], *arguments: Any) -> threading.Lock:
     except RuntimeError:  # no thread to be had: the caller takes the helper's work
         done.release()
     return done
+
+
+def run_shares(share: Callable[[int], Any], count: int) -> None:
+    """``share(k)`` for every ``k < count``: ``share(0)`` on this thread, the others on
+    helpers (:func:`start_helper`) at the same time; returns when all have returned.
+
+    Raises
+    ------
+    BaseException
+        The first exception a share raised (once every share has ended).
+    """
+    if count <= 1:
+        share(0)
+        return
+    failed: list[BaseException] = []
+
+    def helper(k):
+        try:
+            share(k)
+        except BaseException as error:  # noqa: BLE001 - raised in the caller's thread
+            failed.append(error)
+
+    done = [start_helper(helper, k) for k in range(1, count)]
+    try:
+        share(0)
+    finally:
+        for lock in done:
+            lock.acquire()
+    if failed:
+        raise failed[0]
 
 
 def wait_through_interrupts(
