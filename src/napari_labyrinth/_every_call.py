@@ -29,6 +29,7 @@ import tifffile
 
 from . import labyrinth, labyrinth_stack, labyrinth_sweep, metrics, streaming
 from .cli import main as command_line
+from .core.noise import noise_sigma
 from .core.parameters import PARAMETERS
 from .core.percentiles import integer_percentiles
 from .core.presets import PRESETS
@@ -74,6 +75,7 @@ def every_call_steps() -> list[tuple[str, Callable[[], object]]]:
     steps = [(f"labyrinth() of {t} images", _calls_of_dtype(t)) for t in SUPPORTED_DTYPES]
     steps += [
         ("the default tone limits", _percentiles),
+        ("the noise gate's estimate of a dark field", _noise_estimates),
         ("every reading option", _every_option),
         ("colour images", _colour),
         ("metrics", _metrics),
@@ -135,6 +137,18 @@ def _percentiles() -> None:
         ]
         for values in cases:
             integer_percentiles(values, (0.5, 99.5))
+
+
+def _noise_estimates() -> None:
+    """Planes half black: the noise gate's quantile of their dark field, read in
+    integers (uint8 on the scale (0, 255)) and in float tones; Immerkær's estimate of
+    values (``core.noise.noise_sigma``)."""
+    for dtype in (np.uint8, np.uint16):
+        image = _test_image(dtype)
+        image[: EVERY_CALL_SIDE // 2] = image.min()
+        for workers in (1, None):
+            labyrinth(image, passes=1, workers=workers)
+    noise_sigma(_test_image(np.float64))
 
 
 def _every_option() -> None:

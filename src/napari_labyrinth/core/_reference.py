@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from . import _noise_reference
 from . import noise as _noise
 from .codes import (
     BORDER_CODES,
@@ -259,13 +260,14 @@ def reference_render(plane, parameters, *, seed=0, plane_index=0, noise_sigma=No
 
     ``parameters`` is a :class:`~napari_labyrinth.core.parameters.LabyrinthParameters`;
     ``noise_sigma``, the plane's noise in tones, is measured on ``plane``
-    (``noise.tone_noise_sigma``) when not given and the noise gate is on.
+    (``_noise_reference.tone_noise_sigma``, the numpy reading of
+    ``noise.tone_noise_sigma``) when not given and the noise gate is on.
     Returns the final plane and the list of per-pass counts.
     """
     work, all_counts = np.array(plane, dtype=np.float32), []
     if noise_sigma is None:
         gated = parameters.noise_gate > 0
-        noise_sigma = _noise.tone_noise_sigma(work, _TONES) if gated else 0.0
+        noise_sigma = _noise_reference.tone_noise_sigma(work, _TONES) if gated else 0.0
     floor = _noise.variance_floor(parameters.noise_gate, noise_sigma)
     for pass_index in range(parameters.passes):
         work, counts = reference_pass(

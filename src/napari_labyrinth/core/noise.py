@@ -17,11 +17,16 @@ sum to 36); for Gaussian noise the mean absolute residual is
 an upper bound that is close on images whose edges are few (a dark field,
 a smooth texture) and larger on busy ones.
 
-The sums run over fixed bands of rows in a fixed order, so that every path
-that renders a plane (whole, in bands, in tiles, in blocks of a dask image)
-gets the same number from the same values. A JPEG's noise is mostly at the
-scale of its blocks, where Immerkær's mask reads little of it: the noise gate
-takes the larger of this estimate and the dark field's (:func:`dark_field_sigma`).
+Each row's residuals are summed on their own and the rows' sums exactly, so
+that every path that renders a plane (whole, in bands, in tiles, in blocks of
+a dask image, on several threads) gets the same number from the same values.
+A JPEG's noise is mostly at the scale of its blocks, where Immerkær's mask
+reads little of it: the noise gate takes the larger of this estimate and the
+dark field's (:func:`dark_field_sigma`).
+
+Both are measured in one sweep over the plane's tones, a band of rows at a
+time (``_noise_loops``), with the arithmetic of the numpy reading they
+replaced (``_noise_reference``, the tests' oracle), bit for bit.
 
 References
 ----------
@@ -31,20 +36,28 @@ Understanding 64 (2), 300-302 (1996).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
-from .tone_scale import ToneScale
+from .._threads import run_shares
+from .tone_scale import ToneScale, integer_scale
 
 #: ``sqrt(pi / 2) / 6``: the mean absolute residual of the mask times this is sigma.
 _SIGMA_PER_RESIDUAL = math.sqrt(math.pi / 2.0) / 6.0
 
-#: Rows of the plane convolved at once by default: bounds the residuals' memory (float64).
+#: Rows of the plane read at once by default (a plane read band by band from a file).
 _BAND_ROWS = 256
 
-#: Bytes of float64 tones convolved at once, at most (fewer rows of a wide plane).
-_MEASURED_BYTES = 4 << 20
+#: Bytes of tones made and measured at once, at most: a band of rows that stays in a
+#: core's own cache between the two.
+_TONE_BYTES = 1 << 20
+
+#: Rows and pixels of a thread's share of a plane, at least: a thread costs more than
+#: a smaller one.
+_MIN_THREAD_ROWS = 64
+_MIN_THREAD_PIXELS = 1 << 17
 
 
 def noise_sigma(plane: np.ndarray) -> float:
@@ -62,29 +75,32 @@ def noise_sigma(plane: np.ndarray) -> float:
         sigma, >= 0; 0 for a plane under 3 x 3 pixels or without a finite
         3 x 3 neighbourhood.
     """
-    return _residual_sigma(_checked(plane), None)
+    return _measure(_checked(plane), None, _BAND_ROWS, dark=False).residual_sigma()
 
 
-def tone_noise_sigma(values, scale: ToneScale, band_rows: int = _BAND_ROWS) -> float:
+def tone_noise_sigma(
+    values, scale: ToneScale, band_rows: int = _BAND_ROWS, workers: int = 1
+) -> float:
     """The noise of the plane ``values`` in the tones of ``scale``, which the noise gate
     compares the local variance with: the larger of Immerkær's estimate
     (:func:`noise_sigma`) and :func:`dark_field_sigma`, both read on the tones
-    the kernel sees (``scale.to_tones``, made band of rows by band of rows).
+    the kernel sees (``scale.to_tones``), in one sweep over the plane.
 
     This is the one place a rendering measures a plane's noise: every path
     that renders the plane (or a plane of the same tones) gets the same number.
     ``band_rows`` bounds the rows read and held at a time (a plane read band
-    by band from a file); the number does not depend on it.
+    by band from a file); ``workers`` threads share the rows of a plane held
+    in memory. The number depends on neither.
     """
     values = _checked(values)
-    band_rows = max(int(band_rows), 1)
-    return max(_residual_sigma(values, scale, band_rows), dark_field_sigma(values, scale))
+    measures = _measure(values, scale, max(int(band_rows), 1), dark=True, workers=workers)
+    return max(measures.residual_sigma(), measures.dark_sigma())
 
 
 def _checked(plane):
     """``plane`` as an array, or as it is where it reads its rows itself: an array-like
-    with ``shape``, ``ndim`` and ``plane[rows]`` for a slice or an integer array of rows
-    (a plane read band by band from a file, ``io.bands.PlaneBands``)."""
+    with ``shape``, ``ndim`` and ``plane[rows]`` for a slice of rows (a plane read band
+    by band from a file, ``io.bands.PlaneBands``)."""
     if not all(hasattr(plane, name) for name in ("shape", "ndim", "__getitem__")):
         plane = np.asarray(plane)
     if plane.ndim != 2:
@@ -92,54 +108,10 @@ def _checked(plane):
     return plane
 
 
-def _rows(values: np.ndarray, rows, scale: ToneScale | None) -> np.ndarray:
-    """``values[rows]`` as float64: the values, or their tones on ``scale``."""
-    band = values[rows]
-    if scale is None:
-        return band.astype(np.float64)
-    return scale.to_tones(band).astype(np.float64)
-
-
-def _residual_sigma(values, scale: ToneScale | None, band_rows: int = _BAND_ROWS) -> float:
-    """Immerkær's sigma of ``values`` (or of their tones on ``scale``), read ``band_rows``
-    rows at a time and measured on ``_MEASURED_BYTES`` of float64 tones at a time (the
-    tones and the mask's sums of a whole band would take many times its memory); the
-    result depends on neither."""
-    height, width = values.shape
-    if height < 3 or width < 3:
-        return 0.0
-    measured = _measured_rows(width)
-    row_sums, count = [], 0
-    kept = None  # the last two rows of the band before: the rows above the next band's first
-    for start in range(0, height, band_rows):
-        band = values[start : min(height, start + band_rows)]  # each row read once
-        if kept is not None:
-            band = np.concatenate([kept, band])
-        kept = band[-2:]
-        for first in range(1, band.shape[0] - 1, measured):
-            last = min(band.shape[0] - 1, first + measured)
-            residual = _mask_residual(_rows(band, slice(first - 1, last + 1), scale))
-            finite = np.isfinite(residual)
-            row_sums.extend(np.abs(np.where(finite, residual, 0.0)).sum(axis=1).tolist())
-            count += int(finite.sum())
-    if count == 0:
-        return 0.0
-    # each row summed, then the rows' sums exactly (fsum): the same float64 for the same
-    # values, whatever the bands of rows they were read in
-    return math.fsum(row_sums) / count * _SIGMA_PER_RESIDUAL
-
-
-def _measured_rows(width: int) -> int:
-    """Rows of float64 tones measured at once: ``_MEASURED_BYTES`` of them, at most ``_BAND_ROWS``."""
-    return max(1, min(_BAND_ROWS, _MEASURED_BYTES // (8 * width)))
-
-
-def _mask_residual(rows: np.ndarray) -> np.ndarray:
-    """The mask of the module's docstring over the interior of ``rows``."""
-    above, middle, below = rows[:-2], rows[1:-1], rows[2:]
-    corners = above[:, :-2] + above[:, 2:] + below[:, :-2] + below[:, 2:]
-    sides = above[:, 1:-1] + below[:, 1:-1] + middle[:, :-2] + middle[:, 2:]
-    return corners - 2 * sides + 4 * middle[:, 1:-1]
+def dark_stride(height: int, width: int) -> int:
+    """The stride of the rows :func:`dark_field_sigma` samples: at most ``_SAMPLES``
+    pixels, the same rows for the same shape."""
+    return max(1, math.ceil((height - 2) * (width - 2) / _SAMPLES))
 
 
 def dark_field_sigma(values: np.ndarray, scale: ToneScale) -> float:
@@ -157,43 +129,187 @@ def dark_field_sigma(values: np.ndarray, scale: ToneScale) -> float:
     deviation on a JPEG of quality 80, the 90th percentile 0.97
     (``docs/study/noise-gate.md``). 0 without a dark field.
 
-    Rows are sampled with a stride that keeps at most ``_SAMPLES`` pixels (the
-    same rows for the same shape), so that a huge plane costs no more, and
-    measured a few at a time (``_measured_rows``).
+    Rows are sampled with a stride that keeps at most ``_SAMPLES`` pixels
+    (:func:`dark_stride`), so that a huge plane costs no more. V is computed
+    as the sums of the tones and of their squares over the 3 x 3 window less
+    the centre's (Eq. 1's sums in another order than the kernel's: an
+    estimate), and the quantile is ``np.quantile``'s (linear), bit for bit.
     """
+    return _measure(_checked(values), scale, _BAND_ROWS, dark=True).dark_sigma()
+
+
+@dataclasses.dataclass
+class _Measures:
+    """What one sweep over a plane found (``_noise_loops``): each interior row's sum of
+    absolute residuals, the finite residuals, the dark field's sampled pixels, and its
+    dark ones' V: ``variances[starts[i]:ends[i]]`` counted by ``histogram`` (the bins
+    of ``_noise_loops.band_noise``), or for uint8 values on the scale (0, 255) only
+    counted, by ``64 V`` (``paper_histogram``, ``_noise_loops.paper_band_noise``)."""
+
+    row_sums: np.ndarray
+    finite: int = 0
+    sampled: int = 0
+    dark: int = 0
+    variances: np.ndarray | None = None
+    starts: np.ndarray | None = None
+    ends: np.ndarray | None = None
+    histogram: np.ndarray | None = None
+    paper_histogram: np.ndarray | None = None
+
+    def residual_sigma(self) -> float:
+        """Immerkær's sigma: the mean absolute residual times ``_SIGMA_PER_RESIDUAL``."""
+        if self.finite == 0:
+            return 0.0
+        # each row summed, then the rows' sums exactly (fsum): the same float64 for the
+        # same values, whatever the bands of rows and the threads they were measured in
+        return math.fsum(self.row_sums[1:-1].tolist()) / self.finite * _SIGMA_PER_RESIDUAL
+
+    def dark_sigma(self) -> float:
+        """:func:`dark_field_sigma` of the sweep: 0 without a dark field."""
+        if self.dark == 0 or self.dark < MIN_DARK_SHARE * self.sampled:
+            return 0.0
+        return math.sqrt(self._quantile() / _QUANTILE_V)
+
+    def _quantile(self) -> float:
+        """``np.quantile`` of the dark V's at ``DARK_QUANTILE`` (method "linear"), bit for
+        bit: the two values of neighbouring ranks it interpolates between, and its
+        interpolation."""
+        from . import _noise_loops  # numba is imported on first use only
+
+        n = self.dark
+        virtual = (n - 1) * DARK_QUANTILE
+        below = math.floor(virtual)
+        if self.paper_histogram is not None:
+            low, high = _noise_loops.paper_ranked_values(self.paper_histogram, below)
+        else:
+            low, high = _noise_loops.ranked_values(
+                self.variances, self.starts, self.ends, self.histogram, below
+            )
+        low, high = float(low), float(high)
+        if virtual >= n - 1:  # the last value
+            return high
+        gamma = virtual - below
+        difference = high - low
+        if gamma >= 0.5:  # numpy's _lerp: from the upper value
+            return high - difference * (1 - gamma)
+        return low + difference * gamma
+
+
+def _measure(values, scale: ToneScale | None, band_rows: int, *, dark: bool, workers: int = 1):
+    """One sweep over the plane ``values`` (its tones on ``scale``; None: the values as
+    float64): :class:`_Measures`. ``workers`` threads take a share of the rows each,
+    a plane held in memory only."""
     height, width = values.shape
+    measures = _Measures(np.zeros(max(height, 2), np.float64))
     if height < 3 or width < 3:
-        return 0.0
-    stride = max(1, math.ceil((height - 2) * (width - 2) / _SAMPLES))
-    rows = _measured_rows(width)
-    variances = []
-    dark_pixels = total = 0
-    for start in range(1, height - 1, rows * stride):
-        centres = np.arange(start, min(height - 1, start + rows * stride), stride)
-        # the rows above, at and below the centres, in one read (a band read from a file
-        # reads each chunk of rows it touches once)
-        window = np.split(_rows(values, np.concatenate([centres - 1, centres, centres + 1]),
-                                scale), 3)  # fmt: skip
-        centre = window[1][:, 1:-1]
-        # the 3 x 3 sums of the values and of their squares, less the centre's: Eq. 1's
-        # sums over the 8 neighbours (in another order than the kernel's: an estimate)
-        sums = _box(window[0] + window[1] + window[2]) - centre
-        squares = _box(window[0] ** 2 + window[1] ** 2 + window[2] ** 2) - centre**2
-        mean = sums / 8.0
-        variance = np.maximum(squares / 8.0 - mean**2, 0.0)
-        dark = (mean < DARK_TONE) & np.isfinite(variance)
-        variances.append(variance[dark])
-        dark_pixels += int(dark.sum())
-        total += mean.size
-    if dark_pixels == 0 or dark_pixels < MIN_DARK_SHARE * total:
-        return 0.0
-    variance = float(np.quantile(np.concatenate(variances), DARK_QUANTILE))
-    return math.sqrt(variance / _QUANTILE_V)
+        return measures
+    from . import _noise_loops  # numba is imported on first use only
+
+    stride = dark_stride(height, width) if dark else 0
+    shares = min((height - 2) // _MIN_THREAD_ROWS, height * width // _MIN_THREAD_PIXELS)
+    workers = max(1, min(int(workers), shares))
+    if not isinstance(values, np.ndarray):
+        workers = 1  # read band by band, in order
+    # uint8 values on the scale (0, 255), their own tones: measured in integers (a
+    # strided view of them: its tones made band by band)
+    paper = scale is not None and values.dtype == np.uint8
+    paper = paper and integer_scale(scale, np.uint8).paper_uint8
+    paper = paper and (values.flags.c_contiguous if isinstance(values, np.ndarray) else True)
+    # the interior rows, a share a thread; each share's sampled rows have their room
+    bounds = [1 + round(k * (height - 2) / workers) for k in range(workers + 1)]
+    inner = width - 2
+    sampled = [inner * _sampled_before(bound, stride) for bound in bounds]
+    if paper:
+        histograms = [np.zeros(_noise_loops.PAPER_BINS, np.int64) for _ in range(workers)]
+        variances = None
+    else:
+        histograms = [np.zeros(_noise_loops.HISTOGRAM_BINS, np.int64) for _ in range(workers)]
+        variances = np.empty(max(1, sampled[-1]), np.float64)
+    counts = [np.array([0, 0, 0 if paper else sampled[k]], np.int64) for k in range(workers)]
+    measure = _measure_paper_rows if paper else _measure_rows
+    share = (values, scale, band_rows, stride, measures.row_sums, variances)
+
+    def run(k):
+        first = 0 if k == 0 else bounds[k] - 1
+        last = height if k == workers - 1 else bounds[k + 1] + 1
+        measure(*share, first, last, histograms[k], counts[k])
+
+    run_shares(run, workers)
+    measures.finite = sum(int(c[0]) for c in counts)
+    measures.sampled = sum(int(c[1]) for c in counts)
+    if not stride:
+        return measures
+    histogram = histograms[0]
+    for other in histograms[1:]:
+        histogram += other
+    if paper:
+        measures.dark = sum(int(c[2]) for c in counts)
+        measures.paper_histogram = histogram
+    else:
+        measures.starts = np.array(sampled[:-1], np.int64)
+        measures.ends = np.array([int(c[2]) for c in counts], np.int64)
+        measures.dark = int((measures.ends - measures.starts).sum())
+        measures.variances, measures.histogram = variances, histogram
+    return measures
 
 
-def _box(columns: np.ndarray) -> np.ndarray:
-    """Sums of three neighbouring columns: ``columns[:, x - 1] + columns[:, x] + columns[:, x + 1]``."""
-    return columns[:, :-2] + columns[:, 1:-1] + columns[:, 2:]
+def _sampled_before(row: int, stride: int) -> int:
+    """The dark field's sampled rows ``1, 1 + stride, ...`` before ``row``; 0 without."""
+    return 0 if stride <= 0 else max(0, (row - 1 + stride - 1) // stride)
+
+
+def _measure_rows(values, scale, band_rows, stride, row_sums, variances, start, stop, histogram,
+                  counts):  # fmt: skip
+    """``_noise_loops.band_noise`` over the rows ``start <= y < stop`` of ``values`` (the
+    rows ``start < y < stop - 1`` measured), read ``band_rows`` rows at a time from
+    ``start``, made tones ``_TONE_BYTES`` at a time with the two rows above."""
+    from ._noise_loops import band_noise  # numba is imported on first use only
+    from ._tone_loops import integer_tones
+
+    width = values.shape[1]
+    dtype = np.float64 if scale is None else np.float32
+    rows = max(1, _TONE_BYTES // (np.dtype(dtype).itemsize * width))
+    tones = np.empty((rows + 2, width), dtype)
+    fused = None
+    if scale is not None and values.dtype.kind in "iu":
+        fused = integer_scale(scale, values.dtype)
+    kept = 0  # rows at the top of ``tones``: the last two of the rows before
+    for band_start in range(start, stop, band_rows):
+        band = values[band_start : min(stop, band_start + band_rows)]  # each row read once
+        for first in range(0, band.shape[0], rows):
+            piece = band[first : first + rows]
+            made = tones[kept : kept + piece.shape[0]]
+            if scale is None:
+                made[...] = piece
+            elif fused is not None and piece.flags.c_contiguous:
+                integer_tones(piece, made, fused)
+            else:
+                made[...] = scale.to_tones(piece)
+            held = kept + piece.shape[0]
+            band_noise(tones[:held], band_start + first - kept, stride, row_sums, variances,
+                       histogram, counts)  # fmt: skip
+            kept = min(2, held)
+            tones[:kept] = tones[held - kept : held]
+
+
+def _measure_paper_rows(values, scale, band_rows, stride, row_sums, variances, start, stop,
+                        histogram, counts):  # fmt: skip
+    """``_noise_loops.paper_band_noise`` over the rows ``start <= y < stop`` of uint8
+    ``values`` on the scale (0, 255) (their own tones), as :func:`_measure_rows`: a plane
+    in memory in one call, one read band by band with the two rows above each band."""
+    from ._noise_loops import paper_band_noise  # numba is imported on first use only
+
+    if isinstance(values, np.ndarray):
+        paper_band_noise(values[start:stop], start, stride, row_sums, histogram, counts)
+        return
+    kept = None
+    for band_start in range(start, stop, band_rows):
+        band = np.ascontiguousarray(values[band_start : min(stop, band_start + band_rows)])
+        first = band_start
+        if kept is not None:
+            band, first = np.concatenate([kept, band]), band_start - kept.shape[0]
+        paper_band_noise(band, first, stride, row_sums, histogram, counts)
+        kept = band[-2:]
 
 
 #: Tones under which a neighbourhood's mean is dark (the study's dark regions: 20).
