@@ -103,10 +103,15 @@ def colour_planes(
 
 
 def noise_sigmas(
-    array: np.ndarray, layout: PlaneLayout, scale: ToneScale, grey: LuminancePlanes | None
+    array: np.ndarray,
+    layout: PlaneLayout,
+    scale: ToneScale,
+    grey: LuminancePlanes | None,
+    workers: int = 1,
 ) -> np.ndarray:
     """The noise of every plane the engine renders, in tones (``core.noise.tone_noise_sigma``):
-    measured once, before the passes, for the noise gate (``noise_gate``).
+    measured once, before the passes, for the noise gate (``noise_gate``), each plane's
+    rows shared by ``workers`` threads (no more than ``_engine.idle_cores``).
 
     Returns
     -------
@@ -120,8 +125,9 @@ def noise_sigmas(
         rendered, scale = layout.luminance_layout(), TONES
         source = rendered.to_planes(grey.tones)
     sigmas = np.full(rendered.leading_shape, np.nan)
+    threads = min(workers, _engine.idle_cores()) if workers > 1 else 1
     for index in rendered.rendered_indices():
-        sigmas[index] = tone_noise_sigma(source[index], scale)
+        sigmas[index] = tone_noise_sigma(source[index], scale, workers=threads)
     return sigmas
 
 

@@ -530,7 +530,7 @@ def _steps(
     limits = (float(scale.low), float(scale.high))
     sigmas = None  # measured once, for every rendering with the gate on
     if any(parameters.noise_gate > 0 for parameters, _ in runs):
-        sigmas = noise_sigmas(array, layout, scale, grey)
+        sigmas = noise_sigmas(array, layout, scale, grey, workers)
     for run, (parameters, seed) in enumerate(runs):
         rendering = render_planes(
             array,

@@ -100,3 +100,43 @@ def test_a_colour_image_gates_its_luminance_and_renders_as_its_blocks():
     np.testing.assert_array_equal(
         labyrinth(lazy, channel_axis=-1).compute()[0], labyrinth(rgb, channel_axis=-1)
     )
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_a_plane_on_threads_measures_makes_and_writes_on_them_as_one_thread(monkeypatch, dtype):
+    # its noise, its tones and its values, each shared by the threads of its tiles
+    from napari_labyrinth import _engine, _threads
+    from napari_labyrinth._engine import changes, passes
+    from napari_labyrinth.core import noise
+
+    for module in (passes, render_loop, _engine):
+        monkeypatch.setattr(module, "idle_cores", lambda: 2)  # as on an idle machine
+    monkeypatch.setattr(changes, "_MIN_SHARE", 16)  # a short list of changes shared too
+    shared = []
+
+    def counted(share, count):
+        shared.append(count)
+        _threads.run_shares(share, count)
+
+    for module in (noise, render_loop, changes):
+        monkeypatch.setattr(module, "run_shares", counted)
+    plane = _dark_stack((1, 600, 480))[0]  # large enough for threads to share its noise
+    plane = (plane // 40).astype(dtype) if dtype == np.uint8 else plane
+    quiet = np.full_like(plane, plane.max() // 2)
+    quiet[100:110, ::7] = plane.max()  # few changes: listed, and written where listed
+    written_on_two = 0
+    for image in (plane, quiet):
+        for count in (1, 2):
+            options = dict(passes=count, seed=3, return_diagnostics=True)
+            one, one_counts = labyrinth(image, workers=1, **options)
+            shared.clear()
+            two, two_counts = labyrinth(image, workers=2, **options)
+            assert shared[:2] == [2, 2]  # the noise, the tones; then the values written
+            written_on_two += shared[2:] == [2]
+            np.testing.assert_array_equal(two, one)
+            np.testing.assert_array_equal(two_counts, one_counts)
+        stack = labyrinth_stack(image, passes=2, workers=2)
+        np.testing.assert_array_equal(stack, labyrinth_stack(image, passes=2, workers=1))
+    assert written_on_two >= 2
+    sigma = list(labyrinth_steps(plane, workers=2))[-1].noise_sigma
+    assert sigma == list(labyrinth_steps(plane, workers=1))[-1].noise_sigma

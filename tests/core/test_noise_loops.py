@@ -170,9 +170,11 @@ def test_the_loops_dark_tone_is_the_noise_gate_s():
 
 
 def test_renderings_with_the_gate_are_those_of_the_numpy_reading_s_sigma(monkeypatch):
-    from napari_labyrinth._engine import passes
+    from napari_labyrinth import _engine
+    from napari_labyrinth._engine import passes, render_loop
 
-    monkeypatch.setattr(passes, "idle_cores", lambda: 2)  # as on an idle machine
+    for module in (passes, render_loop, _engine):
+        monkeypatch.setattr(module, "idle_cores", lambda: 2)  # as on an idle machine
     image = samples.smectic_batonnets((600, 480), seed=5)
     scale = ToneScale(0.0, 255.0)
     sigma = _noise_reference.tone_noise_sigma(image, scale)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._threads import run_shares
 from ..core.tone_scale import ToneScale, write_changed_values, write_listed_values
 
 
@@ -52,16 +53,41 @@ def gather_changes(changes: np.ndarray, parts: list[np.ndarray]) -> None:
         changes[0] = written + len(listed)
 
 
-def write_back_changes(target, values, initial, work, scale, changes) -> None:
+def write_back_changes(target, values, initial, work, scale, changes, threads: int = 1) -> None:
     """The changed tones' values into ``target``: fused for an integer plane (no ``initial``),
-    at the pixels the passes wrote if ``changes`` holds them all."""
+    at the pixels the passes wrote if ``changes`` holds them all. ``threads`` share an
+    integer plane's rows (or its list of changes): each pixel is written by one of them,
+    or by two with the same value (a pixel listed twice, by two passes)."""
     listed = None if changes is None else listed_changes(changes)
     if listed is not None:
-        write_listed_values(scale, target, values, work, listed)
+        bounds = shares(len(listed), threads if len(listed) >= _MIN_SHARE else 1)
+        run_shares(
+            lambda k: write_listed_values(
+                scale, target, values, work, listed[bounds[k] : bounds[k + 1]]
+            ),
+            len(bounds) - 1,
+        )
     elif initial is None:
-        write_changed_values(scale, target, values, work)
+        bounds = shares(target.shape[0], threads if target.size >= _MIN_SHARE else 1)
+        run_shares(
+            lambda k: write_changed_values(
+                scale, *(a[bounds[k] : bounds[k + 1]] for a in (target, values, work))
+            ),
+            len(bounds) - 1,
+        )
     else:
         write_changes(target, initial, work, scale)
+
+
+#: Pixels (or listed changes) below which a write-back is not shared among threads.
+_MIN_SHARE = 1 << 16
+
+
+def shares(items: int, threads: int) -> list[int]:
+    """The bounds of ``threads`` (at most ``items``, at least 1) shares of ``items`` rows or
+    items, as even as can be: ``bounds[k]`` to ``bounds[k + 1]`` for share k."""
+    threads = max(1, min(int(threads), int(items)))
+    return [round(k * items / threads) for k in range(threads + 1)]
 
 
 def write_changes(

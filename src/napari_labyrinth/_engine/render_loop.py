@@ -24,8 +24,10 @@ from .._pages import empty_in_plain_pages
 from ..core.noise import tone_noise_sigma, variance_floor
 from ..core.parameters import LabyrinthParameters
 from ..core.planes import PlaneLayout
-from ..core.tone_scale import ToneScale, fits_banded_pass, integer_plane_tones
-from .changes import new_changes, write_back_changes
+from ..core.tone_scale import ToneScale, fits_banded_pass, integer_plane_tones, integer_scale
+from .._threads import run_shares
+from .changes import new_changes, shares, write_back_changes
+from .cores import idle_cores
 from .counts import DIAGNOSTICS_DTYPE, diagnostic_counts
 from .passes import banded_pass, run_pass
 from .tiles import MIN_PARALLEL_PIXELS, default_tile, exact_order_refusal
@@ -108,9 +110,10 @@ def render(
         values = source[index]
         floor = -1.0  # the noise gate's floor (core.noise.variance_floor): off
         if parameters.noise_gate > 0:
-            sigma = (
-                tone_noise_sigma(values, scale) if noise_sigmas is None else noise_sigmas[index]
-            )
+            if noise_sigmas is None:  # measured here, on the plane's threads
+                sigma = tone_noise_sigma(values, scale, workers=max(1, workers // plane_workers))
+            else:
+                sigma = noise_sigmas[index]
             floor = variance_floor(parameters.noise_gate, float(sigma))
         if banded:  # tones in and values out, band of rows by band of rows
             work = _banded_tones(values.shape, passes == 1 and not record_passes, parameters)
@@ -134,8 +137,10 @@ def render(
                 )
                 yield pass_index + 1
             return
-        # integer planes: tones in one pass, and no copy of them kept (see write_back_changes)
-        work = integer_plane_tones(scale, values)
+        # integer planes: tones in one pass, and no copy of them kept (see write_back_changes);
+        # a plane on several threads (its tiles) makes and writes them on those threads
+        threads = _plane_threads(values, max(1, workers // plane_workers))
+        work = _integer_tones(scale, values, threads)
         initial = changes = None
         if work is None:
             initial = np.ascontiguousarray(scale.to_tones(values))
@@ -160,11 +165,11 @@ def render(
             )
             if record_passes:
                 write_back_changes(
-                    targets[pass_index][index], values, initial, work, scale, changes
+                    targets[pass_index][index], values, initial, work, scale, changes, threads
                 )
             yield pass_index + 1
         if not record_passes and passes:
-            write_back_changes(targets[0][index], values, initial, work, scale, changes)
+            write_back_changes(targets[0][index], values, initial, work, scale, changes, threads)
 
     flat = {index: int(np.ravel_multi_index(index, leading)) if index else 0 for index in planes}
     if plane_workers == 1:
@@ -230,6 +235,34 @@ def _banded_render(image, source, planes, parameters, plane_threads) -> bool:
         if math.prod(shape) >= MIN_PARALLEL_PIXELS and shape[0] > rows:
             return False  # the plane's passes may run in tiles on several threads
     return all(fits_banded_pass(source[index]) for index in planes)
+
+
+def _plane_threads(values: np.ndarray, spare: int) -> int:
+    """The threads that make a plane's tones and write its values: its ``spare`` workers,
+    no more than ``idle_cores`` (as its tiles take), one for a plane under
+    ``MIN_PARALLEL_PIXELS``."""
+    if spare <= 1 or values.size < MIN_PARALLEL_PIXELS:
+        return 1
+    return max(1, min(spare, idle_cores()))
+
+
+def _integer_tones(scale: ToneScale, values: np.ndarray, threads: int) -> np.ndarray | None:
+    """``integer_plane_tones(scale, values)``, the rows shared by ``threads`` threads (the
+    first touches of the new plane of tones too)."""
+    if threads <= 1 or not fits_banded_pass(values):
+        return integer_plane_tones(scale, values)
+    from ..core._tone_loops import integer_tones  # numba is imported on first use only
+
+    tones = np.empty(values.shape, dtype=np.float32)
+    bounds = shares(values.shape[0], threads)
+    fused = integer_scale(scale, values.dtype)
+
+    def share(k):
+        rows = slice(bounds[k], bounds[k + 1])
+        integer_tones(values[rows], tones[rows], fused)
+
+    run_shares(share, len(bounds) - 1)
+    return tones
 
 
 def _banded_tones(shape, only_pass, parameters) -> np.ndarray:
