@@ -36,40 +36,38 @@ DARK_TONE = 20.0
 
 
 @njit
-def pairwise_sum(values, start, n):
+def pairwise_sum(values, start, n, stack):
     """``values[start:start + n]`` summed as numpy sums a contiguous float64 row
     (``np.add.reduce``'s pairwise summation: 8 lanes in blocks of up to 128 values,
     halves of a multiple of 8 above, the halves' sums added).
 
     numpy recurses into the halves; here a stack of them is walked (a numba
-    function that calls itself is loaded from numba's cache broken).
+    function that calls itself is loaded from numba's cache broken): ``stack`` is
+    room for it, a (4, 64) float64 array (positions and sizes are exact there).
     """
     if n <= _PAIRWISE_BLOCK:
         return _block_sum(values, start, n)
     # the halves under way: their start, size, whether the first half is summed, its sum
-    starts = np.empty(64, np.int64)
-    sizes = np.empty(64, np.int64)
-    first_done = np.zeros(64, np.bool_)
-    first_sums = np.empty(64, np.float64)
+    starts, sizes, first_done, first_sums = stack[0], stack[1], stack[2], stack[3]
     top = 0
     starts[0], sizes[0] = start, n
     while True:
-        size = sizes[top]
+        size = np.int64(sizes[top])
         if size > _PAIRWISE_BLOCK:  # split: the first half next
             half = size // 2
             half -= half % 8
-            first_done[top] = False
+            first_done[top] = 0.0
             starts[top + 1], sizes[top + 1] = starts[top], half
             top += 1
             continue
-        total = _block_sum(values, starts[top], size)
+        total = _block_sum(values, np.int64(starts[top]), size)
         while True:  # hand the sum up to the halves it completes
             top -= 1
             if top < 0:
                 return total
-            if not first_done[top]:  # the first half: the second one next
-                first_done[top], first_sums[top] = True, total
-                half = sizes[top] // 2
+            if first_done[top] == 0.0:  # the first half: the second one next
+                first_done[top], first_sums[top] = 1.0, total
+                half = np.int64(sizes[top]) // 2
                 half -= half % 8
                 starts[top + 1], sizes[top + 1] = starts[top] + half, sizes[top] - half
                 top += 1
@@ -136,56 +134,68 @@ def band_noise(tones, first_row, stride, row_sums, variances, histogram, counts)
     inner = width - 2
     if inner < 1 or rows < 3:
         return
+    # three rows of the band in float64, each converted once, taken in turn
+    above, middle, below = np.empty(width), np.empty(width), np.empty(width)
+    _as_float64(tones[0], above)
+    _as_float64(tones[1], middle)
     magnitudes = np.empty(inner, np.float64)
-    columns = np.empty(width, np.float64)
-    column_squares = np.empty(width, np.float64)
+    stack = np.empty((4, 64), np.float64)  # pairwise_sum's
+    columns, column_squares = np.empty(width), np.empty(width)
+    means, dark_variances = np.empty(inner), np.empty(inner)
     finite_count = 0
     noted = counts[2]
     bits = variances.view(np.int64)  # a non-negative float64's bits rise with it
     for k in range(1, rows - 1):
         y = first_row + k
-        above, middle, below = tones[k - 1], tones[k + 0], tones[k + 1]
+        _as_float64(tones[k + 1], below)
         row_finite = 0
         for x in range(inner):
             # the mask in the order of the numpy reading: corners, sides, centre
-            corners = np.float64(above[x]) + np.float64(above[x + 2])
-            corners = corners + np.float64(below[x])
-            corners = corners + np.float64(below[x + 2])
-            sides = np.float64(above[x + 1]) + np.float64(below[x + 1])
-            sides = sides + np.float64(middle[x])
-            sides = sides + np.float64(middle[x + 2])
-            residual = (corners - 2.0 * sides) + 4.0 * np.float64(middle[x + 1])
+            corners = ((above[x] + above[x + 2]) + below[x]) + below[x + 2]
+            sides = ((above[x + 1] + below[x + 1]) + middle[x]) + middle[x + 2]
+            residual = (corners - 2.0 * sides) + 4.0 * middle[x + 1]
             magnitude = abs(residual)
             finite = magnitude < np.inf  # False for NaN
             magnitudes[x] = magnitude if finite else 0.0
             row_finite += finite
         finite_count += row_finite
-        row_sums[y] = pairwise_sum(magnitudes, 0, inner)
-        if stride <= 0 or (y - 1) % stride != 0:
-            continue
-        # the dark field: the 3 x 3 sums of the tones and of their squares, less the
-        # centre's, from the column sums (above + middle) + below
-        for x in range(width):
-            a, m, b = np.float64(above[x]), np.float64(middle[x]), np.float64(below[x])
-            columns[x] = (a + m) + b
-            column_squares[x] = (a * a + m * m) + b * b
-        counts[1] += inner
-        for x in range(inner):
-            centre = np.float64(middle[x + 1])
-            sums = ((columns[x] + columns[x + 1]) + columns[x + 2]) - centre
-            squares = ((column_squares[x] + column_squares[x + 1]) + column_squares[x + 2])
-            squares = squares - centre * centre
-            mean = sums / 8.0
-            variance = squares / 8.0 - mean * mean
-            if variance < 0.0:  # np.maximum(variance, 0.0): NaN stays NaN
-                variance = 0.0
-            variances[noted] = variance  # kept only if dark: written anyway (no branch)
-            dark = mean < DARK_TONE and abs(variance) < np.inf
-            if dark:
-                histogram[bits[noted] >> HISTOGRAM_SHIFT] += 1
-            noted += dark
+        row_sums[y] = pairwise_sum(magnitudes, 0, inner, stack)
+        if stride > 0 and (y - 1) % stride == 0:
+            # the dark field: the 3 x 3 sums of the tones and of their squares, less the
+            # centre's, from the column sums (above + middle) + below; every pixel's mean
+            # and V first, then the dark ones noted
+            for x in range(width):
+                columns[x] = (above[x] + middle[x]) + below[x]
+                column_squares[x] = (above[x] * above[x] + middle[x] * middle[x]) + (
+                    below[x] * below[x]
+                )
+            for x in range(inner):
+                centre = middle[x + 1]
+                sums = ((columns[x] + columns[x + 1]) + columns[x + 2]) - centre
+                squares = (column_squares[x] + column_squares[x + 1]) + column_squares[x + 2]
+                squares = squares - centre * centre
+                mean = sums / 8.0
+                variance = squares / 8.0 - mean * mean
+                # np.maximum(variance, 0.0): NaN stays NaN
+                dark_variances[x] = 0.0 if variance < 0.0 else variance
+                means[x] = mean
+            counts[1] += inner
+            for x in range(inner):
+                variance = dark_variances[x]
+                variances[noted] = variance  # kept only if dark: written anyway (no branch)
+                if means[x] < DARK_TONE and abs(variance) < np.inf:
+                    histogram[bits[noted] >> HISTOGRAM_SHIFT] += 1
+                    noted += 1
+        above, middle, below = middle, below, above
     counts[0] += finite_count
     counts[2] = noted
+
+
+@njit
+def _as_float64(row, out):
+    """``out[:] = row`` (a row of float32 or float64 tones), as a plain loop."""
+    for x in range(row.shape[0]):
+        out[x] = np.float64(row[x])
 
 
 @cached_njit(nogil=True)
@@ -257,6 +267,11 @@ def _value_of_rank(bits, rank):
     return candidates[0]
 
 
+#: Residuals a row's sum holds in 32 bits (each at most 2040). (A loop over the row in
+#: pieces of this many instead compiled badly for a processor with AVX-512: 3x slower.)
+_SUMMED_IN_32_BITS = (1 << 31) // 2040
+
+
 #: Bins of :func:`paper_band_noise`'s histogram of ``8 Q - S**2`` over the dark pixels:
 #: at most ``7 * (8 * DARK_TONE - 1)**2`` (all of S on one neighbour), plus one.
 PAPER_BINS = 7 * (8 * int(DARK_TONE) - 1) ** 2 + 1
@@ -269,7 +284,7 @@ def paper_band_noise(values, first_row, stride, row_sums, histogram, counts):
 
     A tone is then an integer from 0 to 255, and every float64 the numpy reading
     makes of a row holds an integer under 2**53: the mask's residual (at most
-    16 * 255), the row's sum (pairwise or not: exact) and, for the dark field, the
+    8 * 255 either way), the row's sum (pairwise or not: exact) and, for the dark field, the
     sums S and Q of the 8 neighbours' tones and of their squares. Its V is
     ``Q / 8 - (S / 8)**2 = (8 Q - S**2) / 64`` exactly (a multiple of 1/64 under
     2**20: no rounding, and never below 0), and a pixel is dark where
@@ -285,40 +300,57 @@ def paper_band_noise(values, first_row, stride, row_sums, histogram, counts):
     inner = width - 2
     if inner < 1 or rows < 3:
         return
-    magnitudes = np.empty(inner, np.int32)
-    columns = np.empty(width, np.int32)
-    column_squares = np.empty(width, np.int32)
-    dark_sum = np.int32(8 * DARK_TONE)
+    vertical = np.empty(width, np.int16)
+    magnitudes = np.empty(inner, np.int16)
+    columns, sums = np.empty(width, np.int16), np.empty(inner, np.int16)
+    column_squares, squares = np.empty(width, np.int32), np.empty(inner, np.int32)
+    dark_sum = np.int16(8 * DARK_TONE)
     dark = 0
     for k in range(1, rows - 1):
         y = first_row + k
         above, middle, below = values[k - 1], values[k + 0], values[k + 1]
-        for x in range(inner):
-            corners = (np.int32(above[x]) + np.int32(above[x + 2])) + (
-                np.int32(below[x]) + np.int32(below[x + 2])
+        # the mask is the product of two second differences, [1, -2, 1] down the columns
+        # and across the rows: in integers, the same sum as the numpy reading's corners,
+        # sides and centre. Every step is within +-2040: 16-bit integers (numba would
+        # widen them to 64 bits, a quarter of the lanes), each cut back to them
+        for x in range(width):
+            vertical[x] = np.int16(np.int16(above[x]) + np.int16(below[x])) - np.int16(
+                2 * np.int16(middle[x])
             )
-            sides = (np.int32(above[x + 1]) + np.int32(below[x + 1])) + (
-                np.int32(middle[x]) + np.int32(middle[x + 2])
-            )
-            magnitudes[x] = abs(corners - 2 * sides + 4 * np.int32(middle[x + 1]))
-        total = 0
         for x in range(inner):
-            total += magnitudes[x]
+            residual = np.int16(vertical[x] + vertical[x + 2])
+            residual = np.int16(residual - np.int16(2 * vertical[x + 1]))
+            magnitudes[x] = residual if residual >= 0 else np.int16(-residual)
+        if inner < _SUMMED_IN_32_BITS:  # a row's sum fits 32 bits (and so runs in more lanes)
+            part = np.int32(0)
+            for x in range(inner):
+                part += np.int32(magnitudes[x])
+            total = np.int64(part)
+        else:
+            total = np.int64(0)
+            for x in range(inner):
+                total += magnitudes[x]
         row_sums[y] = np.float64(total)
         if stride <= 0 or (y - 1) % stride != 0:
             continue
+        # S and Q of every pixel of the row first (in 16 and 32 bits: more lanes), then the
+        # dark ones counted
         for x in range(width):
             a, m, b = np.int32(above[x]), np.int32(middle[x]), np.int32(below[x])
-            columns[x] = a + m + b
-            column_squares[x] = a * a + m * m + b * b
-        counts[1] += inner
+            columns[x] = np.int16(np.int16(above[x]) + np.int16(middle[x])) + np.int16(below[x])
+            column_squares[x] = np.int32(a * a + m * m) + np.int32(b * b)
         for x in range(inner):
             centre = np.int32(middle[x + 1])
-            sums = columns[x] + columns[x + 1] + columns[x + 2] - centre
-            if sums < dark_sum:
-                squares = column_squares[x] + column_squares[x + 1] + column_squares[x + 2]
-                squares -= centre * centre
-                histogram[8 * squares - sums * sums] += 1
+            sums[x] = np.int16(np.int16(columns[x] + columns[x + 1]) + columns[x + 2]) - np.int16(
+                centre
+            )
+            squares[x] = np.int32(column_squares[x] + column_squares[x + 1]) + np.int32(
+                column_squares[x + 2] - centre * centre
+            )
+        counts[1] += inner
+        for x in range(inner):
+            if sums[x] < dark_sum:
+                histogram[8 * np.int64(squares[x]) - np.int64(sums[x]) * sums[x]] += 1
                 dark += 1
     counts[0] += (rows - 2) * inner
     counts[2] += dark
