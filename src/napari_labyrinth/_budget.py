@@ -229,8 +229,20 @@ def pillow_header(path: Path):
     raise ValueError("no header Pillow can read")
 
 
-def _bytes_text(size: int) -> str:
+def bytes_text(size: int) -> str:
+    """``"1.5 GiB"``: a size in words, to a tenth of its unit."""
     for unit, scale in (("TiB", 1 << 40), ("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
         if size >= scale:
             return f"{size / scale:.1f} {unit}"
     return f"{size} B"
+
+
+_bytes_text = bytes_text
+
+
+def budget_text(size: int) -> str:
+    """The least ``NAPARI_LABYRINTH_MEMORY`` of at least ``size`` bytes, as it is typed: in
+    whole MiB (``"394M"``), in whole KiB below 64 MiB (``"1700K"``); :func:`parse_size`
+    reads it back as that many bytes exactly."""
+    unit, letter = (1 << 20, "M") if size >= 64 << 20 else (1 << 10, "K")
+    return f"{-(-int(size) // unit)}{letter}"

@@ -2,14 +2,17 @@
 
 A small memory budget (``NAPARI_LABYRINTH_MEMORY``) makes a 512 x 700 plane
 "too large": it was refused, and is now read, rendered and written in bands of
-16 rows, bit for bit what ``labyrinth()`` renders in memory.
+a few chunks of 16 rows, bit for bit what ``labyrinth()`` renders in memory.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import signal
 import sys
+import time
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -22,16 +25,17 @@ pytest.importorskip("dask.array")
 from napari_labyrinth import labyrinth, streaming
 from napari_labyrinth.cli import main
 from napari_labyrinth.core.noise import tone_noise_sigma
+from napari_labyrinth.core.presets import resolve_parameters
 from napari_labyrinth.core.tone_scale import resolve_tone_scale
+from napari_labyrinth.io import ImageFileError, read_image, read_metadata
 from napari_labyrinth.io import bands as plane_bands
-from napari_labyrinth.io import read_image, read_metadata
 
 from .. import textures
 
 SHAPE = (512, 700)
 ROWS = 16  # the chunks and strips of the inputs
-#: The memory of every rendering below: too little for the plane, enough for bands of 16 to
-#: 48 rows (the more passes, the fewer rows).
+#: The memory of every rendering below: too little for the plane, enough for bands of a few
+#: chunks of 16 rows (the wider the values, the fewer rows).
 BUDGET = "1500K"
 
 
@@ -92,7 +96,7 @@ def test_a_plane_too_large_for_memory_is_streamed_bit_for_bit(
     assert result.dtype == image.dtype
     np.testing.assert_array_equal(result, expected)
     assert not np.array_equal(result, image)
-    assert 0 < max(band_reads) <= 3 * ROWS  # never the whole plane at once
+    assert 0 < max(band_reads) <= SHAPE[0] // 8 and max(band_reads) % ROWS == 0  # whole chunks
     record = read_metadata(target).provenance
     assert record["preset"] == preset and record["input"]["shape"] == list(SHAPE)
     if preset == "paper":
@@ -235,3 +239,143 @@ def test_rows_picked_by_index_read_each_chunk_they_fall_in_once(tmp_path, band_r
         plane[np.array([512])]
     with pytest.raises(TypeError, match="a slice or 1-D integers"):
         plane[np.array([1.5])]
+
+
+#: A plane in chunks of 1024 x 256, the shape of the chunks ome-zarr and bioio write (1024²)
+#: for a plane 2.5 chunks wide: its rendering in memory needs about 20 MB.
+TALL = (1536, 640)
+TALL_CHUNKS = (1024, 256)
+
+
+def tall_input(path: Path, dtype=np.uint16) -> np.ndarray:
+    image = smooth(dtype, TALL, seed=5)
+    array = zarr.create_array(store=str(path), shape=TALL, chunks=TALL_CHUNKS, dtype=dtype)
+    array[...] = image
+    return image
+
+
+@pytest.mark.parametrize("preset", ["paper", "labyrinth"])
+@pytest.mark.parametrize("suffix", [".zarr", ".tif"])
+def test_chunks_of_1024_rows_stream_under_a_budget_that_holds_their_values(
+    tmp_path, capsys, monkeypatch, band_reads, preset, suffix
+):
+    # 16M: a chunk of rows is 1.3 MB of values, and was charged the 17 MB of the passes'
+    # buffers for as many rows (26 bytes a pixel): "its chunks of 1024 rows need more
+    # memory than this run may use"
+    image = tall_input(tmp_path / "in.zarr")
+    monkeypatch.setenv("NAPARI_LABYRINTH_MEMORY", "16M")
+    assert render(tmp_path / "in.zarr", "-o", tmp_path / f"out{suffix}", "--preset", preset,
+                  "--seed", "4") == 0  # fmt: skip
+    assert "rendered band by band" in capsys.readouterr().err
+    assert set(band_reads) == {1024, 512}  # each chunk of rows whole, never the plane
+    monkeypatch.delenv("NAPARI_LABYRINTH_MEMORY")
+    expected = labyrinth(image, preset=preset, seed=4)
+    np.testing.assert_array_equal(read_image(tmp_path / f"out{suffix}"), expected)
+
+
+@pytest.mark.parametrize("source", ["zarr of 1024-row chunks", "tif of one strip"])
+def test_a_refusal_names_the_least_budget_that_renders(tmp_path, capsys, monkeypatch, source):
+    if source.startswith("zarr"):
+        image = tall_input(tmp_path / "in.zarr")
+        path, rows = tmp_path / "in.zarr", 1024
+    else:
+        image = smooth(np.uint16)
+        path, rows = tmp_path / "in.tif", SHAPE[0]
+        tifffile.imwrite(path, image, compression="zlib", rowsperstrip=SHAPE[0])
+    target = tmp_path / "out.zarr"
+    monkeypatch.setenv("NAPARI_LABYRINTH_MEMORY", "2M")
+    assert render(path, "-o", target) == 1
+    err = capsys.readouterr().err
+    assert f"its chunks of {rows} rows need more memory than this run may use (2.0 MiB)" in err
+    least = re.search(r"NAPARI_LABYRINTH_MEMORY=(\d+)K at least", err)
+    assert least is not None, err
+    kib = int(least.group(1))
+    # two chunks of rows of raw values (one read, and a copy), a quarter of the budget
+    assert kib == -(-4 * 2 * rows * image.shape[1] * 2 // 1024)
+    monkeypatch.setenv("NAPARI_LABYRINTH_MEMORY", f"{kib - 1}K")
+    assert render(path, "-o", target) == 1
+    assert f"NAPARI_LABYRINTH_MEMORY={kib}K at least" in capsys.readouterr().err
+    assert not target.exists()
+    monkeypatch.setenv("NAPARI_LABYRINTH_MEMORY", f"{kib}K")
+    assert render(path, "-o", target, "--seed", "6") == 0
+    assert "rendered band by band" in capsys.readouterr().err
+    monkeypatch.delenv("NAPARI_LABYRINTH_MEMORY")
+    np.testing.assert_array_equal(read_image(target), labyrinth(image, seed=6))
+
+
+@pytest.mark.parametrize("side", [16_000, 40_000])
+def test_the_usual_chunks_of_a_large_plane_fit_in_a_gigabyte(side):
+    # what ome-zarr and bioio write: chunks of 1024 x 1024, uint16
+    plane = plane_bands.PlaneBands(Path("big.zarr"), (side, side), np.uint16, 1024, None)
+    plan = streaming.band_plan(plane, passes=4, limit=1 << 30)
+    assert plan.read == 1024  # one chunk of rows, 33 or 82 MB of values
+    assert plan.bytes <= (1 << 30) // streaming.BAND_SHARE
+    assert plan.bytes == streaming.plan_bytes(plane.shape, plane.dtype, 4, plan.read,
+                                              plan.rendered, plan.written)  # fmt: skip
+    assert plan.rendered >= 100  # pieces of the passes of many rows still
+    assert plan.written * side * 2 <= plane_bands.BAND_BYTES  # the output's chunks: 16 MB
+    # the least budget: two chunks of rows of values (one read, and a copy), times four
+    least = 4 * 2 * 1024 * side * 2
+    with pytest.raises(ImageFileError, match=rf"NAPARI_LABYRINTH_MEMORY={-(-least >> 20)}M at"):
+        streaming.band_plan(plane, passes=4, limit=least - (1 << 20))
+    assert streaming.band_plan(plane, passes=4, limit=-(-least >> 20) << 20).read == 1024
+
+
+def test_more_memory_gives_larger_pieces_never_more_than_their_share():
+    plane = plane_bands.PlaneBands(Path("big.zarr"), (40_000, 40_000), np.uint16, 1024, None)
+    plans = [streaming.band_plan(plane, 4, limit=n << 28) for n in range(3, 16)]
+    assert all(p.bytes <= (n << 28) // 4 for p, n in zip(plans, range(3, 16), strict=True))
+    rendered = [p.rendered for p in plans]
+    assert rendered == sorted(rendered) and rendered[0] < rendered[-1]
+    per_row = streaming.stream_bytes_per_row(40_000, np.uint16, 4)
+    assert rendered[-1] == streaming.STREAM_BYTES // per_row  # capped
+
+
+def test_a_band_read_is_let_go_before_the_next_is_read(tmp_path, small_budget):
+    image = smooth(np.uint16)
+    plane = plane_bands.open_plane_bands(written_input(tmp_path / "in.zarr", image))
+    held = []
+    read = plane.read
+
+    def recorded(start, stop):
+        assert all(band() is None for band in held), "a band read is still held"
+        band = read(start, stop)
+        held.append(weakref.ref(band))
+        return band
+
+    plane.read = recorded
+    limits = (0, 50000)
+    sigma = tone_noise_sigma(image, resolve_tone_scale(image, limits))  # as in memory
+    stream = streaming.plane_stream(plane, resolve_parameters("labyrinth"), 3,
+                                    tone_limits=limits, noise_sigma=sigma)  # fmt: skip
+    assert stream.rows < SHAPE[0]
+    result = np.empty_like(image)
+    for start, values in stream.bands:
+        result[start : start + len(values)] = values
+    assert len(held) > 4
+    np.testing.assert_array_equal(result, labyrinth(image, seed=3, tone_limits=limits))
+
+
+def test_the_tone_limits_are_read_in_no_more_bands_at_once_than_their_share_holds(
+    tmp_path, monkeypatch
+):
+    image = smooth(np.uint16)
+    plane = plane_bands.open_plane_bands(written_input(tmp_path / "in.zarr", image))
+    reading, most = [], []
+    read = plane.read
+
+    def recorded(start, stop):
+        reading.append(start)
+        most.append(len(reading))
+        time.sleep(0.01)  # long enough for another thread to start a read
+        try:
+            return read(start, stop)
+        finally:
+            reading.remove(start)
+
+    plane.read = recorded
+    # a quarter of 200K holds one band of 32 rows of values (44800 bytes), not two
+    monkeypatch.setenv("NAPARI_LABYRINTH_MEMORY", "200K")
+    scale = resolve_tone_scale(image, None)
+    assert streaming.plane_tone_limits(plane, 32) == (scale.low, scale.high)
+    assert len(most) == SHAPE[0] // 32 and max(most) == 1

@@ -42,9 +42,22 @@ def streaming_refusal(parameters: LabyrinthParameters) -> str | None:
 
 
 def stream_bytes_per_row(width: int, dtype: np.dtype, passes: int) -> int:
-    """Bytes :func:`stream_plane` holds per row of its bands: the tones of every pass, the
-    source values, a band read and a band of results (and its tones while written)."""
-    return int(width) * (4 * max(passes, 1) + 4 + 3 * np.dtype(dtype).itemsize)
+    """Bytes :func:`stream_plane` holds per row of the bands it is given: the tones of every
+    pass, the source values not written yet, and a band's tones and values while they are
+    made (floats: their tones again, and the mask of finite ones). The bands it is given
+    and those it yields are the caller's: :func:`stream_bytes` does not count them."""
+    itemsize = np.dtype(dtype).itemsize
+    floating = 4 + 1 if np.dtype(dtype).kind == "f" else 0
+    return int(width) * (4 * max(passes, 0) + itemsize + 4 + itemsize + floating)
+
+
+def stream_bytes(width: int, dtype: np.dtype, passes: int, rows: int) -> int:
+    """Bytes :func:`stream_plane` holds at most, given bands of ``rows`` rows: those of
+    :func:`stream_bytes_per_row` for each, and the few rows more that each pass keeps (the
+    row above the next one it updates, and the rows the passes below it are behind)."""
+    width, passes = int(width), max(int(passes), 0)
+    kept = 4 * passes * (passes + 4) + np.dtype(dtype).itemsize * (2 * passes + 4)
+    return int(rows) * stream_bytes_per_row(width, dtype, passes) + width * kept
 
 
 class _Rows:
@@ -150,13 +163,17 @@ def stream_plane(
         values = np.ascontiguousarray(values)
         if values.shape[1:] != (width,) or not 0 < values.shape[0] <= rows:
             raise ValueError(f"a band of shape {values.shape} in a plane of shape {shape}")
+        count = values.shape[0]
         if passes == 0:
-            yield read, values.copy()
-            read += values.shape[0]
+            copied = values.copy()
+            del values  # the band given is dropped before the next is read (as below)
+            yield read, copied
+            read += count
             continue
         source.append(values)
         tones[0].append(_tones(scale, values))
-        read += values.shape[0]
+        del values  # copied: a band read whole, of which it is the last piece, goes now
+        read += count
         finished = read  # rows finished by the pass above (the source's: read)
         for k in range(passes):
             # a row reads the row below it as the pass above left it

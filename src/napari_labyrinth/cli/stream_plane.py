@@ -20,8 +20,8 @@ from ..core.tone_scale import resolve_tone_scale
 from ..io import ImageFileError, image_format
 from ..provenance import file_checksum, input_record, rendering_record
 from ..streaming import (
+    band_plan,
     plane_noise_sigma,
-    plane_rows,
     plane_tone_limits,
     render_plane_file,
     streamed_parameters,
@@ -59,10 +59,12 @@ def render_streamed(
     parameters = {k: v for k, v in options.items() if k not in _NOT_PARAMETERS}
     preset = options.get("preset", DEFAULT_PRESET)
     rendering = streamed_parameters(preset, **parameters)
-    rows = plane_rows(plane, rendering.passes)
+    plan = band_plan(plane, rendering.passes)  # refused now, before a pass over the file
+    rows = plan.read
     note(
         f"{input}: a plane of {plane.shape[0]} x {plane.shape[1]} {plane.dtype.name} pixels, "
-        "too large to render in memory here: rendered band by band"
+        f"too large to render in memory here: rendered band by band (read {plan.read} rows, "
+        f"rendered {plan.rendered}, written {plan.written} at a time)"
     )
     kwargs = dict(options)
     if "tone_limits" not in kwargs and plane.dtype.name != "uint8":

@@ -21,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .._budget import MEMORY_ENV, declared, memory_limit
 from ._arrays import native
 from ._atomic import create_temporary_directory, named_after_destination, publish_directory
 from ._errors import ImageFileError, require_file
@@ -155,34 +154,8 @@ def array_plane_bands(array, name: str) -> PlaneBands:
     )  # fmt: skip
 
 
-def band_rows(plane: PlaneBands, bytes_per_row: int, limit: int | None = None) -> int:
-    """Rows of the bands a plane is rendered in: about ``BAND_BYTES`` of values a band, at
-    most a quarter of the memory the run may use (``limit``, default ``memory_limit()``,
-    at ``bytes_per_row`` a row), a multiple of the file's chunk rows where they fit.
-
-    Raises
-    ------
-    ImageFileError
-        If even one chunk of the file's rows (or one row) takes more than that memory.
-    """
-    limit = memory_limit() if limit is None else limit
-    height, width = plane.shape
-    affordable = limit // 4 // max(1, bytes_per_row)
-    wanted = max(1, BAND_BYTES // max(1, width * plane.dtype.itemsize))
-    rows = min(wanted, affordable, height)
-    chunk = min(plane.chunk_rows, height)
-    if chunk > affordable or rows < 1:
-        what = f"its chunks of {chunk} rows need" if chunk > 1 else "one of its rows needs"
-        raise ImageFileError(
-            plane.path,
-            f"{declared(plane.shape, plane.dtype)}, too large to render in memory here and "
-            f"so rendered band by band, but {what} more memory than this run may use: store "
-            f"it in chunks (or strips, tiles) of fewer rows, or set {MEMORY_ENV} to allow more",
-        )
-    return max(chunk, rows // chunk * chunk)
-
-
-#: Bytes of values in a band read or written at a time (when memory allows).
+#: Bytes of values in a band read or written at a time, about (when memory allows, and
+#: the file's chunks of rows are not larger: ``streaming.band_plan``).
 BAND_BYTES = 16 << 20
 
 
