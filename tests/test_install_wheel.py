@@ -389,7 +389,8 @@ def test_from_the_platform_wheel_the_cli_compiles_nothing_and_writes_no_cache(
     assert (install.work / "platform" / "input_labyrinth.png").is_file(), result.stdout
     assert not log.exists() or log.read_text() == "", log.read_text()
     assert "Warning" not in result.stderr, result.stderr
-    assert not (home / ".cache").exists(), sorted(map(str, home.rglob("*")))
+    # numba makes its cache folder as it enables caching (a probe), but nothing is written in it
+    assert not [path for path in home.rglob("*") if path.is_file()], sorted(home.rglob("*"))
     needed = install.run(
         "python", "-c", "from napari_labyrinth import _warmup; print(_warmup.needed())",
         home=home, PATH=bin_path,
